@@ -1,0 +1,1 @@
+"""Paper-specific constants, one module per paper, each tested against the printed numbers."""

@@ -1,0 +1,121 @@
+"""Tyre models: Pacejka magic formula, its secant stiffness, linear tyre, relaxation.
+
+References
+----------
+Yacine et al. 2015 (IEEE TCST 23(2)), eqs. (2), (6), (7), (15)-(16).
+Pacejka, *Tire and Vehicle Dynamics*, 2005 (the standard magic formula).
+
+Reconstruction note: the extracted eq. (2) reads ``D sin(C atan(B(1-E) a + atan(B a)))``;
+the factor ``E`` in front of the inner ``atan`` was lost. Eq. (16) of the same paper
+(``S2 = B(1-E) a + E atan(S1)``) and Pacejka's book both give the standard form used here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+
+def _sinc(x):
+    """sin(x)/x, 1 at 0 (numpy's sinc is sin(pi x)/(pi x))."""
+    return np.sinc(np.asarray(x, dtype=float) / np.pi)
+
+
+def _atanc(x):
+    """atan(x)/x, with its series near 0 so the result is exact to round-off."""
+    x = np.asarray(x, dtype=float)
+    small = np.abs(x) < 1e-4
+    xs = np.where(small, 1.0, x)
+    return np.where(small, 1.0 - x * x / 3.0 + x**4 / 5.0, np.arctan(xs) / xs)
+
+
+@dataclass(frozen=True)
+class Pacejka:
+    """Magic-formula lateral tyre ``F = D sin(C atan(B(1-E) a + E atan(B a)))``.
+
+    Parameters are per axle (both tyres of the axle lumped), as in Yacine 2015 eq. (7).
+    ``B`` [1/rad], ``C`` [-], ``D`` [N] peak force, ``E`` [-] curvature.
+    """
+
+    B: float
+    C: float
+    D: float
+    E: float = 0.0
+
+    @property
+    def cornering_stiffness(self) -> float:
+        """Slope at zero slip, ``B C D`` [N/rad]."""
+        return self.B * self.C * self.D
+
+    def force(self, alpha):
+        """Steady-state lateral force [N] at slip angle ``alpha`` [rad] (any shape)."""
+        a = np.asarray(alpha, dtype=float)
+        B, C, D, E = self.B, self.C, self.D, self.E
+        return D * np.sin(C * np.arctan(B * (1.0 - E) * a + E * np.arctan(B * a)))
+
+    def secant_stiffness(self, alpha):
+        """``f(alpha) = F(alpha)/alpha`` [N/rad], Yacine 2015 eq. (16), exact at 0.
+
+        Evaluated in the paper's product form so it is smooth through ``alpha = 0``
+        (where it equals ``B C D``).
+        """
+        a = np.asarray(alpha, dtype=float)
+        B, C, D, E = self.B, self.C, self.D, self.E
+        S1 = B * a
+        S2 = B * (1.0 - E) * a + E * np.arctan(S1)
+        S3 = C * np.arctan(S2)
+        common = _sinc(S3) * _atanc(S2)
+        return B * C * D * (1.0 - E) * common + B * C * D * E * common * _atanc(S1)
+
+    def sector_bounds(self, alpha_max: float, n: int = 20001) -> tuple[float, float]:
+        """(f_min, f_max) of the secant stiffness over ``|alpha| <= alpha_max`` (dense grid)."""
+        a = np.linspace(-alpha_max, alpha_max, n)
+        f = self.secant_stiffness(a)
+        return float(f.min()), float(f.max())
+
+    @classmethod
+    def from_sector(cls, M_max: float, M_min: float, alpha_max: float, C: float = 1.3,
+                    E: float = 0.0) -> "Pacejka":
+        """Coefficients whose secant stiffness spans exactly ``[M_min, M_max]`` on ``|a|<=a_max``.
+
+        ``B C D = M_max`` (slope at zero slip) and ``F(a_max)/a_max = M_min``; ``C`` and
+        ``E`` are fixed by the caller, ``B`` is found by a bracketing root search and ``D``
+        follows. This is how the Yacine 2015 coefficients (not printed) are chosen.
+        """
+        if not 0 < M_min < M_max:
+            raise ValueError(f"need 0 < M_min < M_max, got M_min={M_min}, M_max={M_max}")
+        ratio = M_min / M_max
+
+        def gap(B):
+            t = cls(B=B, C=C, D=M_max / (B * C), E=E)
+            return t.secant_stiffness(alpha_max) / M_max - ratio
+
+        B = brentq(gap, 1e-3, 10.0 / alpha_max, xtol=1e-14, rtol=1e-14)
+        return cls(B=B, C=C, D=M_max / (B * C), E=E)
+
+
+@dataclass(frozen=True)
+class LinearTire:
+    """Linear tyre ``F = C_alpha * alpha`` [N], ``C_alpha`` in N/rad."""
+
+    C_alpha: float
+
+    @property
+    def cornering_stiffness(self) -> float:
+        return self.C_alpha
+
+    def force(self, alpha):
+        return self.C_alpha * np.asarray(alpha, dtype=float)
+
+    def secant_stiffness(self, alpha):
+        return np.full_like(np.asarray(alpha, dtype=float), self.C_alpha)
+
+
+def relaxation_rhs(F, F_steady, vx, relaxation_length):
+    """First-order tyre relaxation, Yacine 2015 eqs. (6)/(8): ``dF/dt = vx/r (F_S - F)``.
+
+    ``tau = r / vx`` [s] with relaxation length ``r`` [m] and speed ``vx`` [m/s].
+    """
+    return np.asarray(vx) / relaxation_length * (np.asarray(F_steady) - np.asarray(F))

@@ -1,0 +1,41 @@
+"""Shared fixtures. Notebook tests execute the notebook with papermill in quick mode into a
+temporary folder and return its metrics (see ``run_notebook``)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from vehicle_observers.logs import repo_root
+from vehicle_observers.reporting import load_metrics
+
+ROOT = repo_root()
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
+    """Run ``notebooks/<name>.ipynb`` (quick mode) and return its metrics plus ``_dir``."""
+    from vehicle_observers.pipeline import run_notebook
+
+    nb = ROOT / "notebooks" / f"{name}.ipynb"
+    assert nb.exists(), f"missing notebook {nb}"
+    figs = tmp_path / "figures"
+    run_notebook(nb, tmp_path / "build" / nb.name, figs, seed=seed, quick=True, timeout=900)
+    m = load_metrics(figs / name / "metrics.json")
+    m["_dir"] = figs / name
+    return m
+
+
+@pytest.fixture(scope="module")
+def run_notebook(tmp_path_factory):
+    """``run_notebook(name)`` -> metrics dict of a quick-mode execution (cached per module)."""
+    cache = {}
+
+    def _run(name: str, seed: int = 0):
+        if (name, seed) not in cache:
+            cache[(name, seed)] = execute_notebook(name, tmp_path_factory.mktemp(name), seed)
+        return cache[(name, seed)]
+
+    return _run
