@@ -7,7 +7,6 @@ import os
 from pathlib import Path
 
 import pytest
-
 from vehicle_observers.logs import repo_root
 from vehicle_observers.reporting import load_metrics
 
@@ -25,6 +24,12 @@ def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
     run_notebook(nb, tmp_path / "build" / nb.name, figs, seed=seed, quick=True, timeout=900)
     m = load_metrics(figs / name / "metrics.json")
     m["_dir"] = figs / name
+    committed = ROOT / "figures" / name / "metrics.json"
+    if committed.exists():  # quick mode must write the same files as the committed full run
+        want = load_metrics(committed)["_doc"]["files"]
+        got = m["_doc"]["files"]
+        assert got == want, (f"{name}: quick run wrote {sorted(set(got) ^ set(want))} "
+                             "differently from the committed figures/ (regenerate them)")
     return m
 
 

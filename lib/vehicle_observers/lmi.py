@@ -244,7 +244,7 @@ class LMIDesign:
     def _cvx_constraints(self):
         V = Values(self._vars)
         out = []
-        for name, kind, b in self._cons:
+        for _name, kind, b in self._cons:
             M = b(V)
             if kind == "nonneg":
                 out.append(M >= 0)

@@ -187,7 +187,7 @@ def load_log(path, min_vx: float | None = 0.0, required=REQUIRED) -> DriveLog:
             i = int(np.argmax(d <= 0)) + 1
             kind = "duplicate" if d[i - 1] == 0 else "decreasing"
             raise LogFormatError(f"{name}: column 't_s' is not strictly increasing: {kind} time "
-                                 f"at row {i} (line {i + 2}): {t[i - 1]!r} -> {t[i]!r}")
+                                 f"at row {i} (line {i + 2}): {float(t[i - 1]):.9g} -> {float(t[i]):.9g}")
     if min_vx is not None and "vx_mps" in col:
         bad = col["vx_mps"] <= min_vx
         if bad.any():

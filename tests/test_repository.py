@@ -1,0 +1,79 @@
+"""Repository hygiene: notebooks stored clean with a papermill parameters cell, every notebook
+executed by a test, every file in figures/ produced by a notebook (or the benchmark)."""
+
+import json
+import re
+
+import nbformat
+import pytest
+from vehicle_observers import pipeline
+from vehicle_observers.logs import repo_root
+from vehicle_observers.nbbuild import write_notebook
+
+ROOT = repo_root()
+NOTEBOOKS = pipeline.notebooks(ROOT)
+PRODUCERS_OUTSIDE_NOTEBOOKS = {"benchmark"}  # written by `make bench` (vehicle_observers.benchmark)
+
+
+def test_there_are_notebooks():
+    assert NOTEBOOKS, "no notebooks found"
+
+
+@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_stored_without_outputs_and_has_parameters(nb):
+    doc = nbformat.read(str(nb), as_version=4)
+    nbformat.validate(doc)
+    for i, c in enumerate(doc.cells):
+        if c.cell_type == "code":
+            assert not c.outputs, f"{nb.name} cell {i} has stored outputs"
+            assert c.execution_count is None, f"{nb.name} cell {i} has an execution count"
+    params = [c for c in doc.cells if "parameters" in c.metadata.get("tags", [])]
+    assert len(params) == 1, f"{nb.name}: need exactly one cell tagged 'parameters'"
+    for name in ("seed", "quick", "figures_dir"):
+        assert re.search(rf"^{name}\s*=", params[0].source, re.M), f"{nb.name}: no {name!r}"
+
+
+@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
+def test_every_notebook_is_executed_by_a_test(nb):
+    num = nb.stem[:2]
+    t = ROOT / "tests" / f"test_notebook_{num}.py"
+    assert t.exists(), f"no tests/test_notebook_{num}.py for {nb.name}"
+    assert f'run_notebook("{nb.stem}"' in t.read_text(), f"{t.name} does not run {nb.stem}"
+
+
+def test_every_figure_file_is_produced_by_a_notebook():
+    stems = {nb.stem for nb in NOTEBOOKS} | PRODUCERS_OUTSIDE_NOTEBOOKS
+    figs = ROOT / "figures"
+    for folder in sorted(p for p in figs.iterdir() if p.is_dir()):
+        assert folder.name in stems, f"figures/{folder.name} has no producing notebook"
+        mj = folder / "metrics.json"
+        assert mj.exists(), f"figures/{folder.name} has no metrics.json"
+        doc = json.loads(mj.read_text())
+        listed = set(doc["files"])
+        present = {p.name for p in folder.iterdir() if p.is_file()}
+        assert present == listed, (f"figures/{folder.name}: files not written by its producer: "
+                                   f"{sorted(present - listed)}; missing: {sorted(listed - present)}")
+        assert not doc["quick"], f"figures/{folder.name} was generated in quick mode"
+    stray = [p.name for p in figs.iterdir() if p.is_file()]
+    assert not stray, f"files directly in figures/: {stray}"
+
+
+def test_every_notebook_has_committed_figures_and_reproduction_entry():
+    text = (ROOT / "REPRODUCTION.md").read_text()
+    for nb in NOTEBOOKS:
+        assert (ROOT / "figures" / nb.stem / "metrics.json").exists(), f"run make figures ({nb.stem})"
+        assert f"## {nb.stem}" in text, f"REPRODUCTION.md has no section for {nb.stem}"
+
+
+def test_pipeline_reports_failing_notebook_and_cell(tmp_path, monkeypatch, capsys):
+    nb = tmp_path / "99_broken.ipynb"
+    write_notebook(nb, [("params", "seed = 0\nquick = False\nfigures_dir = '.'"),
+                        ("code", "x = 1"), ("code", "raise ValueError('boom at purpose')")])
+    monkeypatch.setattr(pipeline, "notebooks", lambda root=None: [nb])
+    rc = pipeline.main(["--figures", str(tmp_path / "f"), "--build", str(tmp_path / "b"),
+                        "--quick"])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert "99_broken.ipynb" in err and "ValueError" in err and "boom at purpose" in err
+    assert re.search(r"cell \d", err)
+    assert (tmp_path / "b" / "99_broken.ipynb").exists()  # executed copy kept
