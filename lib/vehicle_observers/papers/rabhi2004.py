@@ -1,0 +1,151 @@
+"""Constants of Rabhi, Imine, M'Sirdi, Delanne, "Observers With Unknown Inputs to Estimate
+Contact Forces and Road Profile", AVCS 2004 (hal-01967644).
+
+The paper prints **no numerical values** (no vehicle constants, gains, step size or
+error figures); what it prints is structure: dimensions of the state-space blocks of (9)
+and (26)-(30). Those are recorded here and checked against our matrices in
+``tests/test_papers_rabhi2004.py``. The numerical constants we use instead (vehicle,
+tyres, suspension, gains, steps) are chosen in :mod:`..planar`, :mod:`..fullcar`,
+:mod:`..smo` and listed with their sources there.
+"""
+
+from ..fullcar import FullCarParams
+from ..planar import PlanarParams
+from ..smo import ForceObserverGains, RoadObserverGains
+
+# --- printed structure, Part A (eq. (9)) ---
+n_x1 = 3          # (x, y, psi)
+n_x2 = 3          # (V_x, V_y, psi_dot)
+n_x3 = 2          # (omega_f, omega_r)
+n_x4 = 4          # (F_xf, F_xr, F_yf, F_yr)
+omega_shape = (3, 4)   # Omega(u)
+H_shape = (2, 4)       # H
+n_theta = 8            # reconstructed (R-A5): (1/sigma_i, F0_i/sigma_i), i = 1..4
+
+# --- printed structure, Part B (eqs. (24)-(30)) ---
+n_dof = 7              # q = [z1, z2, z3, z4, z, theta, phi] (printed "R^8", R-B1)
+n_wheels = 4
+K11_shape = (4, 4)
+K12_shape = (4, 3)
+K21_shape = (3, 4)
+K22_shape = (3, 3)
+A11_shape = (4, 4)     # diag(k_r1, k_r2, k_f1, k_f2): rear wheels first (26)
+B11_shape = (4, 4)
+wheel_order = ("rear 1", "rear 2", "front 1", "front 2")
+
+# --- our choices (not from the paper) ---
+planar = PlanarParams()
+fullcar = FullCarParams()
+force_gains = ForceObserverGains(mode=1)
+road_gains = RoadObserverGains()
+dt_force = 5e-4        # s, Part A measurement/observer step (explicit Euler)
+dt_road = 2e-4         # s, Part B step
+speed_iso = 20.0       # m/s on the ISO roads
+speed_belgian = 8.0    # m/s (about 30 km/h) on the Belgian block
+contact_length = 0.1   # m, tyre-enveloping window on the Belgian block
+
+
+# ----------------------------------------------------------------- scenario runners -----
+# (used by notebook 05 and its tests; each returns truth, estimates and metrics)
+import numpy as np  # noqa: E402
+
+from .. import fullcar as _fc  # noqa: E402
+from .. import planar as _pl  # noqa: E402
+from .. import road as _road  # noqa: E402
+from .. import smo as _smo  # noqa: E402
+from ..metrics import rmse as _rmse  # noqa: E402
+
+FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
+X2_NAMES = ("vx", "vy", "r")
+X3_NAMES = ("omega_f", "omega_r")
+x2_err0 = np.array([1.0, 0.5, 0.1])   # initial observer errors (m/s, m/s, rad/s)
+x3_err0 = np.array([5.0, 5.0])        # rad/s
+sensor_noise = (0.02, 0.02, 0.002, 0.05, 0.05)  # std of [vx, vy, r, w_f, w_r] (noisy case)
+
+
+def part_a_truth(T: float = 20.0, dt: float = dt_force, p: PlanarParams = planar):
+    man = _pl.paper_manoeuvre(T, dt)
+    Xs = _pl.simulate(_pl.free_rolling_state(man.v0, p), man.U, dt, p)
+    return man, Xs
+
+
+def part_a_run(man, Xs, gains=None, errors=None, noise=None, seed: int = 0,
+               t_skip: float = 1.0, p: PlanarParams = planar) -> dict:
+    """Run observer (10) on a truth run; metrics after ``t_skip`` s (reaching excluded)."""
+    gains = force_gains if gains is None else gains
+    model = _smo.ForceObserverModel.from_params(p, **(errors or {}))
+    Y = _smo.measurements_from_truth(Xs, noise, seed)
+    res = _smo.run_force_observer(man.t, Y, man.U, model, gains,
+                                  x2_0=Xs[0, 3:6] + x2_err0, x3_0=Xs[0, 6:8] + x3_err0)
+    t = man.t
+    dt = t[1] - t[0]
+    F = Xs[:, 8:12]
+    m = t >= t_skip
+    out = {"t": t, "Y": Y, "F": F, "res": res, "model": model}
+    for i, nm in enumerate(FORCE_NAMES):
+        peak = float(np.max(np.abs(F[:, i])))
+        e = _rmse(res.x4[m, i], F[m, i])
+        out[f"rmse_{nm}"] = e
+        out[f"rmse_pct_{nm}"] = 100 * e / peak
+        out[f"peak_{nm}"] = peak
+        out[f"chatter_{nm}"] = float(np.std(np.diff(res.x4[m, i])))
+    # finite-time reaching of the sliding surfaces x~2 = 0, x~3 = 0
+    lam = np.concatenate([gains.lam2, gains.lam3])
+    phi = np.concatenate([gains.phi2, gains.phi3])
+    err = np.column_stack([Xs[:, 3:6] - res.x2, Xs[:, 6:8] - res.x3])
+    band = np.where(gains.mode == _smo.SAT, 2 * phi, 2 * lam * dt)
+    if noise is not None:
+        band = band + 3 * np.asarray(noise)
+    lhs = _smo.omega_x4_bound(man.U[:, 0], F - res.x4, model)
+    for j, nm in enumerate(X2_NAMES + X3_NAMES):
+        tr = _smo.reaching_time(t, err[:, j], band[j])
+        out[f"t_reach_{nm}"] = tr
+        e0 = abs(err[0, j])
+        k = max(int(np.searchsorted(t, tr if np.isfinite(tr) else t[-1])), 1)
+        d = float(lhs[:k, j].max())
+        out[f"t_bound_{nm}"] = e0 / (lam[j] - d) if lam[j] > d else float("inf")
+        out[f"t_nominal_{nm}"] = e0 / lam[j]
+        out[f"gain_margin_{nm}"] = float(np.min(lam[j] - lhs[m, j]))
+    return out
+
+
+def part_b_road(name: str, T: float, seed: int = 0):
+    """``(road, speed, contact_length)`` for 'B', 'C', 'D' (ISO) or 'belgian'."""
+    if name == "belgian":
+        rd = _road.mirror_extend(_road.load_belgian_block(), speed_belgian * T + 10)
+        return rd, speed_belgian, contact_length
+    return _road.iso8608_road(name, speed_iso * T + 10, seed=seed), speed_iso, 0.0
+
+
+def part_b_run(name: str, T: float = 20.0, gains=None, errors=None, seed: int = 0,
+               t_skip: float = 1.0, dt: float = dt_road, z_err0: float = 5e-3,
+               noise_z: float = 0.0, p: FullCarParams = fullcar) -> dict:
+    """Simulate the full car on road ``name`` and run the UIO; metrics after ``t_skip``."""
+    gains = road_gains if gains is None else gains
+    rd, V, cl = part_b_road(name, T, seed)
+    t = np.arange(int(round(T / dt))) * dt
+    U = rd.wheel_inputs(t, V, p.a + p.b, contact_length=cl)
+    X = _fc.simulate(U, dt, p)
+    Y = _fc.outputs(X, None, None, p)
+    if noise_z > 0:
+        Y = Y.copy()
+        Y[:, :4] += np.random.default_rng(seed + 1).normal(scale=noise_z, size=(len(t), 4))
+    obs_p = p.scaled(**(errors or {}))
+    res = _smo.run_road_observer(t, Y, obs_p, gains, z0=Y[0, :4] + z_err0)
+    m = t >= t_skip
+    out = {"t": t, "U": U, "X": X, "Y": Y, "res": res, "road": rd, "speed": V}
+    for i in range(4):
+        rms = float(np.std(U[m, i]))
+        e = _rmse(res.U[m, i], U[m, i])
+        out[f"U_rmse_mm_{i + 1}"] = 1e3 * e
+        out[f"U_rmse_pct_{i + 1}"] = 100 * e / rms
+        out[f"U_rms_mm_{i + 1}"] = 1e3 * rms
+        out[f"v_rmse_{i + 1}"] = _rmse(res.v[m, i], X[m, 7 + i])
+        dtt = t[1] - t[0]
+        band = 2 * gains.phi1 if gains.mode == _smo.SAT else 2 * gains.h11 * dtt
+        out[f"t_reach_z{i + 1}"] = _smo.reaching_time(t, Y[:, i] - res.z[:, i], band)
+    out["t_bound_z"] = z_err0 / gains.h11
+    out["x22_rmse"] = [_rmse(res.x22[m, j], X[m, 11 + j]) for j in range(3)]
+    out["U_rmse_mm_mean"] = float(np.mean([out[f"U_rmse_mm_{i + 1}"] for i in range(4)]))
+    out["U_rmse_pct_mean"] = float(np.mean([out[f"U_rmse_pct_{i + 1}"] for i in range(4)]))
+    return out
