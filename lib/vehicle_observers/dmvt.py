@@ -624,3 +624,83 @@ def plot_sweep(ax, sweep: dict, chosen=None):
         iR = int(np.argmin(np.abs(R - chosen[1])))
         ax.add_patch(Rectangle((ia - 0.5, iR - 0.5), 1, 1, fill=False, lw=2, ec="k"))
     return ax
+
+
+STATE_LABELS = ("x1 = beta [rad]", "x2 = psi_beta [1/m]", "x3 = alpha [rad]",
+                "x4 = psi_alpha [rad/s]")
+
+
+def plot_estimates(axs, t, X, Xhat, label="estimate", color="C1", truth=True):
+    """Four panels: state ``X[:, i]`` and its estimate ``Xhat[:, i]`` (decimated)."""
+    from .reporting import decimate
+
+    td, Xd, Xhd = decimate(t, X, Xhat, max_points=1500)
+    for i, ax in enumerate(np.ravel(axs)[:4]):
+        if truth:
+            ax.plot(td, Xd[:, i], "k", lw=1.2, label="state")
+        ax.plot(td, Xhd[:, i], "--", color=color, label=label)
+        ax.set_ylabel(STATE_LABELS[i])
+    np.ravel(axs)[0].legend(loc="best")
+    for ax in np.ravel(axs)[-2:]:
+        ax.set_xlabel("t [s]")
+    return axs
+
+
+def printed_jacobian_entries(X, U, include_third: bool = False) -> np.ndarray:
+    """Literal transcription of Ichalal 2011 eqs. (32)-(33) along states ``X`` (N, 4) and
+    inputs ``U`` (N,), with ``z2 -> x2``, ``z3 -> x3`` (the printed ``z`` are the DMVT points):
+
+        (32)  100 cos x3 x2 sin x3 + 100 cos x3 sin x3 (+ 1/3)
+        (33)  16.35 cos x3 + 100 x2^2 cos^2 x3 - 8.33 u sin x3 - 100 x2^2 sin^2 x3 (+ 1/3)
+
+    The trailing ``+ 1/3`` (garbled in the extraction) is added when ``include_third``.
+    Returns (N, 2). Used only to explain the printed premise bounds: (33) lacks the term
+    ``-(v^2/p) x2 sin x3`` of the exact derivative and (32) does not match ``(v^2/p) cos x3
+    (1 + 2 p x2 sin x3)`` at all (it vanishes at x3 = 0 where the exact value is v^2/p).
+    """
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    U = np.ravel(U)
+    x2, x3 = X[:, 1], X[:, 2]
+    extra = 1.0 / 3.0 if include_third else 0.0
+    xi1 = 100 * np.cos(x3) * x2 * np.sin(x3) + 100 * np.cos(x3) * np.sin(x3) + extra
+    xi2 = (16.35 * np.cos(x3) + 100 * x2**2 * np.cos(x3) ** 2 - 8.33 * U * np.sin(x3)
+           - 100 * x2**2 * np.sin(x3) ** 2 + extra)
+    return np.column_stack([xi1, xi2])
+
+
+def plot_tracking(axs, t, X, U):
+    """Fig. 3 analogue: x3 vs sin t, x4 vs cos t, and the input u of (27)."""
+    from .reporting import decimate
+
+    td, x3, x4, u = decimate(t, X[:, 2], X[:, 3], U, max_points=1500)
+    axs[0].plot(td, x3, label="x3 = alpha")
+    axs[0].plot(td, np.sin(td), "k--", label="x3d = sin t")
+    axs[1].plot(td, x4, label="x4")
+    axs[1].plot(td, np.cos(td), "k--", label="x4d = cos t")
+    axs[2].plot(td, u, "C2")
+    axs[2].set_ylabel("u [N m, normalised]")
+    axs[2].set_xlabel("t [s]")
+    for ax in axs[:2]:
+        ax.legend(loc="upper right")
+    return axs
+
+
+def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed=None):
+    """Varying Jacobian entries ``xi`` (N, k) with the derived (``jts``) and printed bounds;
+    ``xi_printed`` (N, k) optionally overlays the printed formulas (NaN columns skipped)."""
+    from .reporting import decimate
+
+    td, xd = decimate(t, xi, max_points=1500)
+    pd = None if xi_printed is None else decimate(t, xi_printed, max_points=1500)[1]
+    for l, ax in enumerate(np.ravel(axs)):
+        ax.plot(td, xd[:, l], label=f"{jts.names[l]} exact")
+        if pd is not None and np.all(np.isfinite(pd[:, l])):
+            ax.plot(td, pd[:, l], "C2", label="printed formula, literal")
+        for k, v in enumerate((jts.lo[l], jts.hi[l])):
+            ax.axhline(v, color="C0", ls=":", label="derived bounds" if k else None)
+        for k, v in enumerate(printed_bounds[l]):
+            ax.axhline(v, color="C3", ls="--", label="printed bounds" if k else None)
+        ax.set_ylabel(jts.names[l])
+        ax.legend(loc="upper right", ncol=2)
+    np.ravel(axs)[-1].set_xlabel("t [s]")
+    return axs
