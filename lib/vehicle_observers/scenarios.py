@@ -242,14 +242,18 @@ def time_grid(s_grid, v_grid, fs: float = FS_HZ, t_end: float | None = None):
 
 # ----------------------------------------------------------------- truth simulation -------
 @njit(cache=True)
-def _rhs(X, dcmd, vx, rho, P, tau_s, out):
+def _rhs(X, dcmd, vx, rho, P, tau_s, out, exact=True):
     # X = [vy, r, Ff, Fr, psiL, yL, delta]
     m, Iz, af, ar, rf, rr, ls = P[0], P[1], P[2], P[3], P[4], P[5], P[6]
     vy, r, Ff, Fr, psiL, delta = X[0], X[1], X[2], X[3], X[4], X[6]
-    beta = np.arctan2(vy, vx)
-    cb = np.cos(beta)
-    a_f = delta - beta - np.arctan(af * r * cb / vx)          # eq. (3)
-    a_r = -beta + np.arctan(ar * r * cb / vx)
+    if exact:
+        beta = np.arctan2(vy, vx)
+        cb = np.cos(beta)
+        a_f = delta - beta - np.arctan(af * r * cb / vx)      # eq. (3)
+        a_r = -beta + np.arctan(ar * r * cb / vx)
+    else:
+        a_f = delta - vy / vx - af * r / vx                   # eq. (4)
+        a_r = -vy / vx + ar * r / vx
     FfS = _mf(a_f, P[7], P[8], P[9], P[10])                    # eq. (7)
     FrS = _mf(a_r, P[11], P[12], P[13], P[14])
     out[0] = (Ff + Fr) / m - vx * r                             # eq. (8)
@@ -304,7 +308,7 @@ def _closed_loop(t, s, vx, track_s, track_rho, lap, P, dist, drv, substeps, X0):
 
 
 @njit(cache=True)
-def _open_loop(t, vx, delta, rho, P, substeps):
+def _open_loop(t, vx, delta, rho, P, substeps, exact):
     """RK4 of S1 (8) + S2 (9) with a prescribed steering (actuator bypassed)."""
     N = t.shape[0]
     out = np.empty((N, 6))
@@ -322,19 +326,19 @@ def _open_loop(t, vx, delta, rho, P, substeps):
         for i in range(6):
             out[k, i] = x[i]
         for _ in range(substeps):
-            _rhs(x, delta[k], vx[k], rho[k], P, 1.0, k1)
+            _rhs(x, delta[k], vx[k], rho[k], P, 1.0, k1, exact)
             k1[6] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k1[i]
-            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k2)
+            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k2, exact)
             k2[6] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k2[i]
-            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k3)
+            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k3, exact)
             k3[6] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + h * k3[i]
-            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k4)
+            _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k4, exact)
             for i in range(6):
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return out
@@ -363,7 +367,9 @@ def _ar1(w, a, x0):
     return out
 
 
-def _slip(vy, r, delta, vx, p):
+def _slip(vy, r, delta, vx, p, exact=True):
+    if not exact:
+        return delta - vy / vx - p.a_f * r / vx, -vy / vx + p.a_r * r / vx
     beta = np.arctan2(vy, vx)
     af = delta - beta - np.arctan(p.a_f * r * np.cos(beta) / vx)
     ar = -beta + np.arctan(p.a_r * r * np.cos(beta) / vx)
@@ -378,7 +384,7 @@ def _hold(x, t, rate_hz):
 
 
 def _make_log(t, truth, rho, vx_true, delta_true, s, p, rng, noise_scale, vision_rate_hz,
-              source, extra=None) -> DriveLog:
+              source, extra=None, exact_slip=True) -> DriveLog:
     if noise_scale < 0 or not np.isfinite(noise_scale):
         raise ValueError(f"noise_scale must be finite and >= 0, got {noise_scale}")
     if vision_rate_hz is not None and not (0 < vision_rate_hz <= FS_HZ):
@@ -392,7 +398,7 @@ def _make_log(t, truth, rho, vx_true, delta_true, s, p, rng, noise_scale, vision
     yL_m, psiL_m = yL + noise["yL"], psiL + noise["psiL"]
     if vision_rate_hz is not None:
         yL_m, psiL_m = _hold(yL_m, t, vision_rate_hz), _hold(psiL_m, t, vision_rate_hz)
-    af, ar = _slip(vy, r, delta_true, vx_true, p)
+    af, ar = _slip(vy, r, delta_true, vx_true, p, exact_slip)
     ex = {"s_m": s, "vx_true_mps": vx_true, "delta_true_rad": delta_true,
           "yaw_rate_true_radps": r, "ay_true_mps2": ay_true, "yL_true_m": yL,
           "psiL_true_rad": psiL, "alpha_f_true_rad": af, "alpha_r_true_rad": ar,
@@ -485,6 +491,35 @@ def sine_with_dwell(seed: int = 0, vx: float = 17.0, amplitude: float | None = N
                      amplitude * np.sin(w * (tau2 + t1)), delta)
     vxa = np.full_like(t, float(vx))
     rho = np.zeros_like(t)
-    out = _open_loop(t, vxa, delta, rho, p.as_array(), int(substeps))
+    out = _open_loop(t, vxa, delta, rho, p.as_array(), int(substeps), True)
     return _make_log(t, out, rho, vxa, delta, vxa * t, p, rng, noise_scale, vision_rate_hz,
                      source=f"sine_with_dwell(seed={seed}, vx={vx:g}, A={amplitude:.4g} rad)")
+
+
+def replay(log: DriveLog, exact_slip: bool = False, params: LateralParams | None = None,
+           seed: int = 0, noise_scale: float = 0.0, vision_rate_hz: float | None = None,
+           substeps: int = 2) -> DriveLog:
+    """Re-simulate the truth of ``log`` open loop from its true steering, speed and curvature.
+
+    ``exact_slip=False`` uses the small-angle slip angles (4), so the truth is the model
+    (13) that the 8-rule TS form (24) represents *exactly* inside its sector (Yacine 2015
+    Sec. III-B); ``True`` uses the exact slip (3). S2 (9) is integrated alongside. Used for
+    the theory check of Theorem 1 (bound (34)). Inputs are taken from ``log.extra``
+    (``delta_true_rad``, ``vx_true_mps``) and ``log.rho``; sensors as in
+    :func:`emulated_satory` (noise-free by default).
+    """
+    p = params or _default_params()
+    log.require("rho_1pm", purpose="replay")
+    for c in ("delta_true_rad", "vx_true_mps"):
+        if c not in log.extra:
+            raise ValueError(f"{log.source or 'log'}: replay needs the truth column {c!r} "
+                             "(logs from emulated_satory / sine_with_dwell have it)")
+    delta = np.ascontiguousarray(log.extra["delta_true_rad"])
+    vx = np.ascontiguousarray(log.extra["vx_true_mps"])
+    rho = np.ascontiguousarray(log.rho, dtype=float)
+    out = _open_loop(log.t, vx, delta, rho, p.as_array(), int(substeps), bool(exact_slip))
+    rng = np.random.default_rng(seed)
+    s = log.extra.get("s_m", np.cumsum(vx) * log.dt)
+    kind = "exact slip (3)" if exact_slip else "small-angle slip (4)"
+    return _make_log(log.t, out, rho, vx, delta, s, p, rng, noise_scale, vision_rate_hz,
+                     source=f"replay[{kind}] of {log.source}", exact_slip=bool(exact_slip))
