@@ -25,9 +25,9 @@ Uncertainty (10): ``Delta A_i = M F(t) N_{a,i}``, ``Delta B_i = M F(t) N_{b,i}``
 
 import numpy as np
 
+from .yacine2015 import I_z, m, tire_f, tire_r
 from .yacine2015 import a_f as l_f
 from .yacine2015 import a_r as l_r
-from .yacine2015 import I_z, m, tire_f, tire_r
 
 __all__ = ["m", "I_z", "l_f", "l_r", "tire_f", "tire_r"]
 
@@ -52,11 +52,23 @@ scale_fdot = 0.05                      # rad/s, typical fault rate
 
 # design parameters (Theorem 2 / Remark 2: "chosen arbitrarily ... feasible"); sweep ranges
 alpha_design = 2.0                 # 1/s, decay rate of the Lyapunov function (V' <= -2 alpha V)
-phi_design = 5.0                   # 1/s, bound on |dh_i/dt| (Assumption 2)
-mu_grid = (1e-3, 1e-2, 1e-1)       # s, Finsler slack scalar mu (line search, Remark 2)
+phi_design = 10.0                  # 1/s, |dh_i/dt| bound (Assumption 2; run max ~ 6 1/s)
+mu_grid = (1e-3, 1e-2)             # s, Finsler slack scalar mu (line search, Remark 2)
+radius = 200.0                     # 1/s, observer poles kept in |lambda| < radius (1 kHz RK4)
+gamma_level = 0.5                  # L2-gain level defining the feasibility map
 
 # scenario (Fig. 3 analogue): steering, fault, uncertainty signal
 t_end = 20.0                       # s
 dt = 1e-3                          # s (1 kHz)
 t_fault = 8.0                      # s, fault appears
 x0_true = np.array([0.3, 0.05])    # v_y [m/s], r [rad/s] (system initial state)
+
+
+def build_model(rho_value: float | None = None):
+    """Identify the fuzzy forces from the Pacejka tyres and build the uncertain TS model."""
+    from ..uio import UncertainLateralTS, fit_fuzzy_forces
+
+    ty = fit_fuzzy_forces(tire_f, tire_r, alpha_fit_max, n_fit, fit_x0)
+    return UncertainLateralTS(m, I_z, l_f, l_r, vx, ty, C, F_s, M,
+                              rho if rho_value is None else rho_value,
+                              np.diag([sigma_vy, sigma_r]), scale_x, scale_fdot)
