@@ -237,3 +237,32 @@ def test_error_metrics_on_known_signals():
     # -exp(-t) cos 3t: opposite-sign peak where tan 3t = -1/3, value exp(-t*) 3/sqrt(10)
     ts = (np.pi - np.arctan(1 / 3)) / 3
     assert m["overshoot"][1] == pytest.approx(np.exp(-ts) * 3 / np.sqrt(10), rel=1e-5)
+
+
+def test_number_of_gains_does_not_change_feasibility_on_the_bicycle():
+    """Remark in dmvt: with common P the LMIs of different j are decoupled and identical,
+    so r = 1 and r = 2 gains are feasible for exactly the same regions (checked across the
+    boundary R_min(a=2) ~ 6.1 found by the notebook's bisection)."""
+    jts, _, _ = _bike_jts()
+    for R, feasible in ((5.5, False), (7.0, True)):
+        for r in (1, 2):
+            region = [halfplane(2.0), disk(R)]
+            if feasible:
+                d = dmvt.design_dmvt_observer(jts.vertices, ic.C, r=r, region=region)
+                assert d.poles.max_modulus < R and d.poles.max_real < -2.0
+            else:
+                with pytest.raises(InfeasibleDesign):
+                    dmvt.design_dmvt_observer(jts.vertices, ic.C, r=r, region=region)
+
+
+def test_sweep_brackets_and_bisection_bracket_errors():
+    sw = {"a": np.array([0.0, 1.0, 2.0, 3.0]), "R": np.array([4.0, 6.0, 10.0]),
+          "feasible": np.array([[0, 1, 1], [0, 0, 1], [0, 0, 0], [1, 0, 1]], dtype=bool)}
+    # a = 2 (never feasible) and a = 3 (not an upper interval) are skipped
+    assert dmvt.sweep_brackets(sw) == [(0.0, 4.0, 6.0), (1.0, 6.0, 10.0)]
+    with pytest.raises(ValueError, match="R_hi > R_lo"):
+        dmvt.min_feasible_radius(A_KNOWN[None], C_KNOWN, 0.5, 3.0, 2.0)
+    # without end checks the bracket is trusted: same answer as with them
+    R = dmvt.min_feasible_radius(A_KNOWN[None], C_KNOWN, 0.5, 2.0, 3.0, tol=0.02,
+                                 check_ends=False)
+    assert R == pytest.approx(np.sqrt(5), abs=0.03)

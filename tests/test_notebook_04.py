@@ -76,3 +76,8 @@ def test_claims_and_files(m):
               "fig5_region.png", "fig_poles.png", "fig_region_sweep.png",
               "fig_jacobian_bounds.png", "fig_errors.png"):
         assert (m["_dir"] / f).exists(), f
+
+
+def test_sweep_has_no_certification_failures(m):
+    # every infeasible cell is declared infeasible by the solver, none is a rejected solution
+    assert m["sweep_certification_failures"] == 0

@@ -527,11 +527,18 @@ def error_metrics(t, X, Xhat, band: float = 0.02) -> dict:
 
 
 def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: float = 0.05,
-                        r: int = 1, **kw) -> float:
+                        r: int = 1, check_ends: bool = True, **kw) -> float:
     """Smallest disk radius ``R`` (to ``tol``) for which (23)+(35)+(36) with half-plane ``a``
-    is feasible and certified, by bisection on ``[R_lo, R_hi]`` (``R_hi`` must be
-    feasible). Returns ``nan`` if ``R_hi`` is infeasible, ``R_lo`` if it is feasible."""
+    is feasible and certified, by bisection on ``[R_lo, R_hi]``.
+
+    With ``check_ends`` the ends are tested first: returns ``nan`` if ``R_hi`` is infeasible
+    and ``R_lo`` if ``R_lo`` is feasible. Without it the caller guarantees the bracket
+    (``R_lo`` infeasible, ``R_hi`` feasible, e.g. from :func:`region_sweep`).
+    """
     from .lmi import disk, halfplane
+
+    if not R_hi > R_lo:
+        raise ValueError(f"need R_hi > R_lo, got [{R_lo}, {R_hi}]")
 
     def ok(R):
         try:
@@ -541,10 +548,11 @@ def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: fl
         except InfeasibleDesign:
             return False
 
-    if not ok(R_hi):
-        return float("nan")
-    if ok(R_lo):
-        return float(R_lo)
+    if check_ends:
+        if not ok(R_hi):
+            return float("nan")
+        if ok(R_lo):
+            return float(R_lo)
     lo, hi = float(R_lo), float(R_hi)
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
@@ -553,6 +561,22 @@ def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: fl
         else:
             lo = mid
     return hi
+
+
+def sweep_brackets(sweep: dict) -> list:
+    """Per half-plane ``a`` of a :func:`region_sweep`: ``(a, R_infeasible, R_feasible)`` with
+    the largest infeasible and the smallest feasible grid radius (rows whose feasible set is
+    not an upper interval of the R grid, or has no feasible/infeasible cell, are skipped)."""
+    out = []
+    for ia, a in enumerate(sweep["a"]):
+        F = sweep["feasible"][ia]
+        if F.all() or not F.any():
+            continue
+        k = int(np.argmax(F))
+        if not F[k:].all():
+            continue
+        out.append((float(a), float(sweep["R"][k - 1]), float(sweep["R"][k])))
+    return out
 
 
 def initial_error_study(bp, t, ts, designs: dict, C, n: int, scale, seed: int = 0,
