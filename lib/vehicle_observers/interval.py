@@ -804,19 +804,27 @@ def random_stiffness_trajectory(veh: UncertainBicycle, n: int, dt: float, seed: 
 
 
 def interval_metrics(res: IntervalResult, truth: np.ndarray, t: np.ndarray | None = None,
-                     t_skip: float = 0.0, tol: float = 0.0, mask=None) -> dict:
+                     t_skip: float = 0.0, tol: float = 0.0, mask=None,
+                     width_t_skip: float | None = None) -> dict:
     """Enclosure rate of ``truth`` (N, 2) (NaN columns are skipped) and mean / max widths of
     ``v_y`` [m/s] and ``r`` [rad/s], over samples with ``t >= t[0] + t_skip`` (and ``mask``
-    (N,) bool if given). ``max_excursion_*``: largest distance outside the interval."""
+    (N,) bool if given). ``max_excursion_*``: largest distance outside the interval.
+    ``width_t_skip`` (needs ``t``): widths only after this time, to leave out the decay of
+    the initial box."""
     truth = np.asarray(truth, dtype=float)
     sel = np.ones(len(truth), bool) if t is None else (t >= t[0] + t_skip)
     if mask is not None:
         sel = sel & np.asarray(mask, dtype=bool)
     if not sel.any():
         raise ValueError("interval_metrics: no sample selected (check t_skip / mask)")
+    wsel = sel
+    if width_t_skip is not None:
+        if t is None:
+            raise ValueError("interval_metrics: width_t_skip needs t")
+        wsel = sel & (t >= t[0] + width_t_skip)
     out = {}
     for c, nm in enumerate(("vy", "r")):
-        w = res.width[sel, c]
+        w = res.width[wsel, c]
         out[f"width_mean_{nm}"] = float(w.mean())
         out[f"width_max_{nm}"] = float(w.max())
         x = truth[sel, c]
@@ -827,3 +835,131 @@ def interval_metrics(res: IntervalResult, truth: np.ndarray, t: np.ndarray | Non
         above = np.maximum(x - res.x_hi[sel, c], 0) + np.maximum(res.x_lo[sel, c] - x, 0)
         out[f"max_excursion_{nm}"] = float(above.max())
     return out
+
+
+def run_on_log(design: IntervalDesign, log, x0_lo, x0_hi, steer_noise: float = 0.0,
+               y_noise: float = 0.0, use_truth: bool = False, clip_speed: bool = False):
+    """Run the observer on a :class:`~vehicle_observers.logs.DriveLog`: measured ``vx``,
+    steering ``delta +- steer_noise`` [rad] and yaw rate ``y`` with ``|y - r| <= y_noise``.
+    ``use_truth=True`` takes the noise-free ``*_true`` channels of an emulated log instead."""
+    if use_truth:
+        for c in ("vx_true_mps", "delta_true_rad", "yaw_rate_true_radps"):
+            if c not in log.extra:
+                raise ValueError(f"{log.source or 'log'}: use_truth needs column {c!r}")
+        vx, d, y = (log.extra[c] for c in ("vx_true_mps", "delta_true_rad",
+                                           "yaw_rate_true_radps"))
+    else:
+        vx, d, y = log.vx, log.delta, log.yaw_rate
+    return run_interval_observer(design, log.dt, vx, d - steer_noise, d + steer_noise, y,
+                                 x0_lo, x0_hi, y_noise=y_noise, clip_speed=clip_speed)
+
+
+def share_in_box(stiffness, lo: float, hi: float, mask=None) -> float:
+    """Share of samples whose (secant) stiffness [N/rad] lies in ``[lo, hi]``."""
+    s = np.asarray(stiffness, dtype=float)
+    if mask is not None:
+        s = s[np.asarray(mask, bool)]
+    return float(np.mean((s >= lo) & (s <= hi)))
+
+
+def plot_inputs(t, vx, delta, sigma, bands: SpeedBands, title: str = ""):
+    """Steering, speed with the band edges, and sigma(t) (the slides' input figures)."""
+    import matplotlib.pyplot as plt
+
+    from .reporting import decimate
+
+    fig, ax = plt.subplots(3, 1, sharex=True, figsize=(9.0, 6.0))
+    tt, d, v, s = decimate(t, delta, vx, np.asarray(sigma) + 1, max_points=2000)
+    ax[0].plot(tt, np.degrees(d))
+    ax[0].set_ylabel("road-wheel steering [deg]")
+    ax[1].plot(tt, v)
+    for e in bands.edges:
+        ax[1].axhline(e, color="0.5", ls=":", lw=0.8)
+    ax[1].set_ylabel("v_x [m/s]")
+    ax[2].step(tt, s, where="post")
+    ax[2].set_ylabel("sigma(t)")
+    ax[2].set_yticks(range(1, bands.n_modes + 1))
+    ax[2].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=None,
+                   truth_label: str = "truth"):
+    """Interval estimates of v_y and r (``results = {label: IntervalResult}``) with the
+    reference (the slides' two result figures, stacked)."""
+    import matplotlib.pyplot as plt
+
+    from .reporting import decimate
+
+    t = np.asarray(t)
+    sel = np.ones(len(t), bool) if tlim is None else (t >= tlim[0]) & (t <= tlim[1])
+    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9.0, 5.6))
+    for c, (nm, ref, unit) in enumerate((("v_y", truth_vy, "m/s"), ("r", truth_r, "rad/s"))):
+        for k, (lab, res) in enumerate(results.items()):
+            tt, lo, hi = decimate(t[sel], res.x_lo[sel, c], res.x_hi[sel, c], max_points=2000)
+            col = f"C{k + 1}"
+            ax[c].fill_between(tt, lo, hi, color=col, alpha=0.25 if k == 0 else 0.15,
+                               lw=0, label=f"[{nm}^-, {nm}^+] {lab}")
+            ax[c].plot(tt, lo, color=col, lw=0.6)
+            ax[c].plot(tt, hi, color=col, lw=0.6)
+        if ref is not None:
+            tt, rr = decimate(t[sel], np.asarray(ref)[sel], max_points=2000)
+            ax[c].plot(tt, rr, color="k", lw=0.9, label=truth_label)
+        ax[c].set_ylabel(f"{nm} [{unit}]")
+        ax[c].legend(loc="upper right", ncol=3)
+    ax[1].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_widths(t, results: dict, title: str = ""):
+    """Interval widths of v_y and r (log scale) for several observers."""
+    import matplotlib.pyplot as plt
+
+    from .reporting import decimate
+
+    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9.0, 4.8))
+    for lab, res in results.items():
+        tt, w1, w2 = decimate(t, res.width[:, 0], res.width[:, 1], max_points=2000)
+        ax[0].semilogy(tt, np.maximum(w1, 1e-12), label=lab)
+        ax[1].semilogy(tt, np.maximum(w2, 1e-12), label=lab)
+    ax[0].set_ylabel("width v_y [m/s]")
+    ax[1].set_ylabel("width r [rad/s]")
+    ax[1].set_xlabel("t [s]")
+    ax[0].legend()
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None):
+    """Designed L (and P diagonals) next to the slides' printed values, per mode/vertex."""
+    import matplotlib.pyplot as plt
+
+    K = design.L.shape[0]
+    fig, ax = plt.subplots(1, 3, figsize=(10.0, 3.4))
+    idx = np.arange(K * 4)
+    labels = [f"{i + 1}.{j + 1}" for i in range(K) for j in range(4)]
+    for c, nm in enumerate(("L1 (v_y row)", "L2 (r row)")):
+        ax[c].plot(idx, np.abs(design.L[..., c, 0]).ravel(), "o", label="designed |L|")
+        if L_printed is not None:
+            lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
+            ax[c].plot(np.arange(len(lp)), lp, "x", label="printed |L|")
+        ax[c].set_yscale("log")
+        ax[c].set_title(nm)
+    if P_printed is not None:
+        pp_ = np.asarray(P_printed)
+        ax[2].plot(np.arange(pp_[..., 0].size), (pp_[..., 1] / pp_[..., 0]).ravel(), "x",
+                   label="printed")
+    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", label="designed")
+    ax[2].set_yscale("log")
+    ax[2].set_title("P_22 / P_11")
+    for a in ax:
+        a.set_xticks(idx)
+        a.set_xticklabels(labels, rotation=90, fontsize=7)
+        a.set_xlabel("mode.vertex")
+        a.legend(fontsize=7)
+    return fig

@@ -81,3 +81,37 @@ def design(bands_: SpeedBands | None = None, veh: UncertainBicycle | None = None
                 p_min=p_min)
     opts.update(kw)
     return design_theorem2(model(bands_, veh), **opts)
+
+
+# ---- choices for the real log (Revs Ferrari 250 LM, 100 Hz, v_x 16.5-61 m/s) -------------
+#: vehicle from papers/revs250lm (m, I_z, l_f, l_r, tuned C_f, C_r as nominal), +-10 %
+revs_rel_unc = 0.10
+#: three bands of similar v_max / v_min ratio covering 16.5-61.2 m/s, and one band
+revs_bands = SpeedBands((16.0, 30.0, 45.0, 62.0))
+revs_bands_single = SpeedBands((16.0, 62.0))
+#: (20) shift = 1/T_s so one Euler step per 10 ms sample keeps the discrete positivity
+revs_epsilon_shift = 100.0
+#: |dv_x/dt| bound [m/s^2]: the log's |a_x| reaches 11.0 m/s^2
+revs_accel_max = 12.0
+#: measurement bounds: about 4 std of the high-frequency part of each channel
+#: (yaw rate 0.0049 rad/s, steering 0.0024 rad after despiking)
+revs_y_noise = 0.02
+revs_steer_noise = 0.01
+
+
+def revs_vehicle(rel_unc: float = revs_rel_unc) -> UncertainBicycle:
+    from . import revs250lm as rv
+
+    return UncertainBicycle(m=rv.m, I_z=rv.I_z, l_f=rv.l_f, l_r=rv.l_r, c_f0=rv.C_f,
+                            c_r0=rv.C_r, rel_unc=rel_unc,
+                            name=f"Revs Ferrari 250 LM, +-{100 * rel_unc:g} % stiffness")
+
+
+def revs_design(bands_: SpeedBands | None = None, rel_unc: float = revs_rel_unc, **kw):
+    """Theorem 2 design for the real log with the choices above."""
+    opts = dict(eps_decay=eps_decay, epsilon_shift=revs_epsilon_shift,
+                accel_max=revs_accel_max, p_min=p_min)
+    opts.update(kw)
+    from ..interval import design_theorem2
+
+    return design_theorem2(model(bands_ or revs_bands, revs_vehicle(rel_unc)), **opts)
