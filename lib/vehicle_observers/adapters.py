@@ -1,0 +1,1 @@
+"""Registry adapters for observers implemented in other modules (filled as they land)."""
