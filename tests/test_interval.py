@@ -163,6 +163,15 @@ def test_infeasible_when_box_allows_oversteer():
     assert ei.value.lmi.startswith("Metzler")
 
 
+def test_diagonal_shift_precheck_names_the_entry():
+    # at 0.1 m/s, A^-_11 = -(c_f + c_r)^+ / (m 0.1) = -606.7 1/s cannot be shifted by L
+    a11 = -(VEH.xi_box[:, 1].sum()) / (VEH.m * 0.1)
+    with pytest.raises(InfeasibleDesign, match=r"entry \(1,1\) of A\^- = -606.7 < -epsilon = -300"):
+        pp.design(epsilon_shift=300.0)
+    assert a11 == pytest.approx(-606.666, rel=1e-4)
+    pp.design(epsilon_shift=300.0, bands_=iv.SpeedBands((1.0, 6.0, 11.0, 17.5)))  # feasible
+
+
 def test_infeasible_lmi_raises():
     # a decay rate far beyond what the uncontrollable v_y pole allows at 17.5 m/s
     with pytest.raises(InfeasibleDesign, match="infeasible"):

@@ -301,6 +301,20 @@ class SwitchedIntervalModel:
                         f"{self.veh.max_metzler_uncertainty():.4g} allowed)",
                         lmi=f"Metzler[{i + 1},{j + 1}]", violation=-a21)
 
+    def check_diagonal_shift(self, epsilon: float):
+        """Raise :class:`InfeasibleDesign` if (20)'s diagonal part cannot hold: entry (1,1)
+        of ``A^- - L C`` is ``A^-_11 = -(c_f+c_r)^+/(m v_x)`` whatever ``L`` (``C = [0 1]``)."""
+        for i in range(self.n_modes):
+            for j in range(4):
+                a11 = self.A_lo[i, j, 0, 0]
+                if a11 < -epsilon:
+                    raise InfeasibleDesign(
+                        f"(20) diagonal impossible in mode {i + 1}, vertex {j + 1}: entry (1,1) "
+                        f"of A^- = {a11:.4g} < -epsilon = {-epsilon:g} and L cannot change it "
+                        f"(C = [0 1]); raise epsilon above {-a11:.4g} 1/s or the lowest speed "
+                        f"band edge ({self.bands.edges[0]:g} m/s)",
+                        lmi=f"diag[{i + 1},{j + 1}] (20)", violation=-epsilon - a11)
+
     def check_detectable(self):
         """Assumption 1: (A^{j+}, C) observable for every mode/vertex (entry (2,1) != 0)."""
         for i in range(self.n_modes):
@@ -398,7 +412,7 @@ def certify_metzler(model: SwitchedIntervalModel, L: np.ndarray, name: str = "de
 def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
                     epsilon_shift: float | None = 1000.0, accel_max: float = 3.0,
                     phi: np.ndarray | None = None, p_min: float = 1.0,
-                    metzler_tol: float = 1e-3, lmi_eps: float = 1e-4,
+                    metzler_tol: float = 1e-3, lmi_eps: float = 1e-2,
                     per_mode_gamma: bool = True, name: str = "Ifqir 2017 Theorem 2") \
         -> IntervalDesign:
     """Solve Theorem 2 (17)-(21) (min gamma) and certify it.
@@ -425,6 +439,8 @@ def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
     """
     model.check_detectable()
     model.check_metzler_feasible()
+    if epsilon_shift is not None:
+        model.check_diagonal_shift(epsilon_shift)
     K, n = model.n_modes, N_STATE
     phi = model.membership_rate_bounds(accel_max) if phi is None else np.asarray(phi, float)
     if phi.shape != (K, 4) or np.any(phi < 0) or not np.all(np.isfinite(phi)):
