@@ -6,12 +6,9 @@ import pytest
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb02")]
 
-NB = "02_premise_estimation"
-
-
 @pytest.fixture(scope="module")
 def m(run_notebook):
-    return run_notebook(NB)
+    return run_notebook("02_premise_estimation")
 
 
 def test_files(m):

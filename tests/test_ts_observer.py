@@ -179,3 +179,14 @@ def test_bad_inputs(design, quick_clean):
     q2.vx[5] = 0.0
     with pytest.raises(ValueError, match="vx_mps.*row 5"):
         to.run_observer(q2, design, vy_premise=np.zeros(len(q2)))
+
+
+def test_convergence_time_modes():
+    t = np.arange(0.0, 10.0, 0.01)
+    err = np.where(t < 2.0, 1.0, 0.0)
+    err[(t > 6.0) & (t < 6.5)] = 1.0            # a later excursion (re-convergence)
+    assert to.convergence_time(t, err, 0.5, mode="first") == pytest.approx(2.0)
+    assert to.convergence_time(t, err, 0.5, mode="last") == pytest.approx(6.5)
+    assert np.isnan(to.convergence_time(t, np.ones_like(t), 0.5, mode="first"))
+    with pytest.raises(ValueError, match="mode"):
+        to.convergence_time(t, err, 0.5, mode="mid")
