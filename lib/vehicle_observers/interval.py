@@ -960,17 +960,19 @@ def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None):
     idx = np.arange(K * 4)
     labels = [f"{i + 1}.{j + 1}" for i in range(K) for j in range(4)]
     for c, nm in enumerate(("L1 (v_y row)", "L2 (r row)")):
-        ax[c].plot(idx, np.abs(design.L[..., c, 0]).ravel(), "o", label="designed |L|")
+        ax[c].plot(idx, np.abs(design.L[..., c, 0]).ravel(), "o", color="C0",
+                   label="designed |L|")
         if L_printed is not None:
             lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
-            ax[c].plot(np.arange(len(lp)), lp, "x", label="printed |L|")
+            ax[c].plot(np.arange(len(lp)), lp, "x", color="C1", label="printed |L|")
         ax[c].set_yscale("log")
         ax[c].set_title(nm)
     if P_printed is not None:
         pp_ = np.asarray(P_printed)
         ax[2].plot(np.arange(pp_[..., 0].size), (pp_[..., 1] / pp_[..., 0]).ravel(), "x",
-                   label="printed")
-    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", label="designed")
+                   color="C1", label="printed")
+    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", color="C0",
+               label="designed")
     ax[2].set_yscale("log")
     ax[2].set_title("P_22 / P_11")
     for a in ax:
