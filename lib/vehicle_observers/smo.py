@@ -358,15 +358,18 @@ def measurements_from_truth(Xs, noise_std=None, seed: int = 0) -> np.ndarray:
 
 def omega_x4_bound(delta, x4_err, model: ForceObserverModel) -> np.ndarray:
     """``|Omega(d) x~4|`` (N, 3) and ``|H x~4x|`` (N, 2) stacked as (N, 5): the left sides
-    of the gain conditions (13) and (16) along a trajectory."""
-    Q = model.as_array()
-    out = np.empty((len(delta), 5))
-    Om = np.empty((3, 4))
-    Hm = np.empty((2, 4))
-    for k, d in enumerate(np.asarray(delta, dtype=float)):
-        _omega_h(d, Q, Om, Hm)
-        out[k, :3] = np.abs(Om @ x4_err[k])
-        out[k, 3:] = np.abs(Hm @ x4_err[k])
+    of the gain conditions (13) and (16) along a trajectory (vectorised form of
+    ``_omega_h``)."""
+    d = np.asarray(delta, dtype=float)
+    e = np.asarray(x4_err, dtype=float)
+    c, s = np.cos(d), np.sin(d)
+    m, Jz, lf, lr = model.m, model.J_z, model.l_f, model.l_r
+    out = np.empty((len(d), 5))
+    out[:, 0] = np.abs(c * e[:, 0] + e[:, 1] - s * e[:, 2]) / m
+    out[:, 1] = np.abs(s * e[:, 0] + c * e[:, 2] + e[:, 3]) / m
+    out[:, 2] = np.abs(lf * s * e[:, 0] + lf * c * e[:, 2] - lr * e[:, 3]) / Jz
+    out[:, 3] = np.abs(model.r_f / model.J_f * e[:, 0])
+    out[:, 4] = np.abs(model.r_r / model.J_r * e[:, 1])
     return out
 
 
