@@ -809,12 +809,12 @@ def random_stiffness_trajectory(veh: UncertainBicycle, n: int, dt: float, seed: 
             out[k:k + length] = box[np.arange(2), rng.integers(0, 2, size=2)]
             k += length
         return out
+    from scipy.signal import lfilter
+
     a = math.exp(-dt / corr_time)
     w = rng.standard_normal((n, 2)) * math.sqrt(1 - a * a)
-    z = np.empty((n, 2))
-    z[0] = rng.standard_normal(2)
-    for k in range(1, n):
-        z[k] = a * z[k - 1] + w[k]
+    w[0] = rng.standard_normal(2)                     # stationary start
+    z = lfilter([1.0], [1.0, -a], w, axis=0)          # z_k = a z_{k-1} + w_k
     s = np.tanh(1.5 * z)
     return box[:, 0] + (s + 1) / 2 * (box[:, 1] - box[:, 0])
 
