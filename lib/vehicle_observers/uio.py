@@ -62,7 +62,7 @@ Performance index (the same for both designs): the L2 gain ``gamma`` from
 ``|h_i'| <= phi`` and Finsler's lemma (Lemma 1) with slack ``[G; mu G; 0]`` on the
 constraint ``eps' = N_h eps + B_h omega``::
 
-    [[s phi (P_1 - P_2) + 2a P_i + He(G N_i), P_i - G^T + mu N_i^T G^T, G B_i, I],
+    [[s phi (P_1 - P_2) + 2a P_i + He(G N_i), P_i - G + mu N_i^T G^T, G B_i, I],
      [*, -mu (G + G^T), mu G B_i, 0], [*, *, -g I, D_e^T], [*, *, *, -I]] < 0
 
 for each rule i and s = +-1 (for two rules h_1' = -h_2', so P' = h_1' (P_1 - P_2) is
@@ -71,7 +71,16 @@ affine in h_1' in [-phi, phi]: the two signs are exact), ``G N_i = G T Abar_i - 
 sum over the rules suffices. Remark 1: with ``P_i = P``, ``G = P`` the matrix is the one of
 (a) plus ``mu/2 [N B]^T P [N B]`` (Schur complement), so every (a) solution gives a (b)
 solution for ``mu`` small enough: :func:`relaxed_from_quadratic` builds it explicitly and
-the certificate checks it.
+the certificate checks it. For a fixed ``mu > 0`` (b) does *not* contain (a) in general
+(projection lemma: it also needs ``2 P > mu (...)``); the line search over ``mu`` therefore
+includes a near-limit value (1e-6 s), so (b) contains (a) up to solver accuracy.
+
+Pole region (both designs, not in the paper): the observer poles are kept in the disk
+``|lambda| < radius`` (default 200 1/s) for the 1 kHz implementation; without it the
+quadratic design drives one pole to ~ -1e7 1/s. (a): ``[[P, (P N_i)^T], [P N_i, P]] > 0``
+in the time unit ``1/radius``; (b): ``[[P_i, (G N_i)^T], [G N_i, G + G^T - P_i]] > 0``
+(de Oliveira's extended discrete-Lyapunov LMI; congruence with ``[I, -N^T]`` gives
+``N^T P_i N < P_i``). All LMIs are solved in the time unit ``1/radius`` (conditioning).
 
 Arrays: time series (N,), states (N, 2), augmented (N, 3), memberships (N, 2).
 """
@@ -209,7 +218,11 @@ class UncertainLateralTS:
 
     def __post_init__(self):
         self.C = np.atleast_2d(np.asarray(self.C, dtype=float))
-        self.F_s = np.asarray(self.F_s, dtype=float).reshape(len(self.C), -1)
+        self.F_s = np.asarray(self.F_s, dtype=float)
+        if self.F_s.size != len(self.C):
+            raise ValueError(f"F_s must be ({len(self.C)}, 1) (one fault, one entry per output "
+                             f"row of C), got shape {self.F_s.shape}")
+        self.F_s = self.F_s.reshape(len(self.C), 1)
         self.M = np.asarray(self.M, dtype=float).reshape(2, -1)
         self.D_w = np.atleast_2d(np.asarray(self.D_w, dtype=float))
         self.scale_x = np.asarray(self.scale_x, dtype=float)
@@ -465,8 +478,8 @@ def relaxed_builders(st, alpha, phi, mu):
         GB = _error_input(st, i, W, G)
         Pdot = s * phi * (V.P0 - V.P1)
         Z3 = np.zeros((3, 3))
-        return bmat([[Pdot + 2 * alpha * Pi + GN + GN.T, Pi - G.T + mu * GN.T, GB, np.eye(3)],
-                     [Pi - G + mu * GN, -mu * (G + G.T), mu * GB, Z3],
+        return bmat([[Pdot + 2 * alpha * Pi + GN + GN.T, Pi - G + mu * GN.T, GB, np.eye(3)],
+                     [Pi - G.T + mu * GN, -mu * (G + G.T), mu * GB, Z3],
                      [GB.T, mu * GB.T, -V.g * np.eye(nw), De.T],
                      [np.eye(3), Z3, De, -np.eye(3)]])
 
@@ -502,7 +515,7 @@ def _relaxed_design(st0, alpha, phi, mu, eps, radius=200.0):
     return d
 
 
-def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-3, 1e-2),
+def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6, 1e-3, 1e-2),
                    st: dict | None = None, radius: float = 200.0,
                    eps: float = 1e-6) -> UIOGains:
     """Design (b), Theorem 2: fuzzy Lyapunov matrices + Finsler slack ``G``, scalar ``mu``.
@@ -551,40 +564,20 @@ def structure(model: UncertainLateralTS, Y=None) -> dict:
     return st
 
 
-def relaxed_from_quadratic(st, gains_a: UIOGains, phi: float, mu: float,
-                           slack: float = 1e-3, eps: float = 1e-9) -> dict:
-    """Remark 1, constructively: from a solution of (a) (P, K_i, gamma) build a point of (b).
+def relaxed_from_quadratic(gains_a: UIOGains, slack: float = 1e-3, n_rules: int = 2) -> dict:
+    """Remark 1, constructively: a point of (b) built from a solution of (a).
 
-    Keeps ``P_1 = P_2 = P``, the gains ``K_i`` and ``g = (1 + slack) gamma^2`` of (a) (the
-    optimum of (a) sits on the boundary, margin ~ eps) and solves the
-    LMIs of Theorem 2 for the slack ``G`` alone (``W_i = G K_i``). By the projection lemma
-    such a G exists iff, besides (a), ``[mu, -1]``-projected terms are negative (true for
-    ``mu`` small enough). Returns the (b) variables; check them with
-    :func:`relaxed_certificate`. Raises InfeasibleDesign if no G exists.
+    ``P_1 = P_2 = G = P``, ``W_i`` unchanged (same gains K_i) and ``g = (1 + slack) gamma_a^2``
+    (the optimum of (a) sits on its boundary, margin ~ eps). By the Schur complement of the
+    ``-2 mu P`` block, the (b) matrix equals the (a) matrix plus ``mu/2 [N B]^T P [N B]``, so
+    it is negative for ``mu`` small enough; check with :func:`relaxed_certificate`.
+    Values are in the time-scaled units of the stored solutions.
     """
     v = gains_a.solution.values
-    radius = gains_a.radius
-    tau = 1.0 / radius
-    P = v["P"]
-    Ks = [np.linalg.solve(P, v[f"W{i}"]) for i in range(len(st["TA"]))]
-    stt = _time_scaled(st, radius)
-    build = relaxed_builders(stt, gains_a.alpha * tau, phi * tau, mu / tau)
-    d = LMIDesign(f"(a) -> (b) slack search, mu={mu:g}", eps=eps)
-    d.matrix("G", (3, 3))
-    d.fixed("P0", P)
-    d.fixed("P1", P)
-    g = v["g"] * (1.0 + slack)
-    d.fixed("g", g)
-    for i, K in enumerate(Ks):
-        d._vars[f"W{i}"] = d._vars["G"] @ K
-        d._raw[f"W{i}"] = None
-    for i in range(len(Ks)):
-        for s_ in (1, -1):
-            d.negative(f"Ups[{i + 1},{s_:+d}]", lambda V, i=i, s_=s_: build(V, i, s_))
-    sol = d.solve()
-    out = {"G": sol["G"], "g": g, "P0": P, "P1": P}
-    for i, K in enumerate(Ks):
-        out[f"W{i}"] = sol["G"] @ K
+    out = {"G": v["P"], "g": v["g"] * (1.0 + slack)}
+    for i in range(n_rules):
+        out[f"P{i}"] = v["P"]
+        out[f"W{i}"] = v[f"W{i}"]
     return out
 
 
@@ -596,7 +589,7 @@ def relaxed_certificate(st, values: dict, alpha: float, phi: float, mu: float,
 
 
 # ------------------------------------------------------------------- feasibility sweep --
-def feasibility_map(model, alphas, phis, mu=(1e-3, 1e-2), st=None, radius: float = 200.0,
+def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius: float = 200.0,
                     gamma_level: float | None = None) -> dict:
     """Best certified gamma of (a) (depends on alpha only) and (b) on an alpha x phi grid.
 

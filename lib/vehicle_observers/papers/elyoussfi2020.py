@@ -53,9 +53,9 @@ scale_fdot = 0.05                      # rad/s, typical fault rate
 # design parameters (Theorem 2 / Remark 2: "chosen arbitrarily ... feasible"); sweep ranges
 alpha_design = 2.0                 # 1/s, decay rate of the Lyapunov function (V' <= -2 alpha V)
 phi_design = 10.0                  # 1/s, |dh_i/dt| bound (Assumption 2; run max ~ 6 1/s)
-mu_grid = (1e-3, 1e-2)             # s, Finsler slack scalar mu (line search, Remark 2)
+mu_grid = (1e-6, 1e-3, 1e-2)       # s, Finsler slack scalar mu (line search, Remark 2)
 radius = 200.0                     # 1/s, observer poles kept in |lambda| < radius (1 kHz RK4)
-gamma_level = 0.5                  # L2-gain level defining the feasibility map
+gamma_level = 0.55                 # L2-gain level defining the feasibility map
 
 # scenario (Fig. 3 analogue): steering, fault, uncertainty signal
 t_end = 20.0                       # s

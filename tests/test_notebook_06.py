@@ -1,0 +1,62 @@
+"""Notebook 06 (relaxed UIO) executed in quick mode; its key metrics asserted.
+
+Quick mode: 12 s run (fault at 8 s), feasibility map alpha in {0, 15} 1/s x phi in {0, 10} 1/s.
+"""
+
+import numpy as np
+import pytest
+from vehicle_observers.papers import elyoussfi2020 as P
+
+pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb06")]
+
+
+@pytest.fixture(scope="module")
+def m(run_notebook):
+    return run_notebook("06_relaxed_uio")
+
+
+def test_identification_and_structure(m):
+    assert m["fit_rms_rel"] < 2e-3
+    assert m["T_Mbar_residual"] < 1e-12            # (23a) exact
+
+
+def test_designs_certified(m):
+    assert m["margin_a"] > 0 and m["margin_b"] > 0
+    assert m["remark1_certified"] is True
+    # same index, (b) no worse (solver accuracy 1e-4), decay rate respected
+    assert m["gamma_b"] <= m["gamma_a"] * (1 + 1e-4)
+    assert m["slowest_pole_a"] > 2.0 and m["slowest_pole_b"] > 2.0
+
+
+def test_feasibility_map(m):
+    assert m["map_containment"] is True
+    # alpha = 15, phi = 0: only (b) reaches gamma <= 0.55
+    assert m["map_n_feasible_b"] > m["map_n_feasible_a"]
+    ga = np.array(m["map_gamma_a"])
+    gb = np.array(m["map_gamma_b"])
+    assert np.all(gb <= ga[:, None] * (1 + 1e-4))
+
+
+def test_estimation_metrics(m):
+    # v_y lies in the decoupled uncertainty direction: its estimate is the measured v_y, so
+    # the RMSE equals the sensor noise sigma (4000 samples: +-5 % covers the sampling spread)
+    for k in "ab":
+        assert m[f"rmse_vy_{k}"] == pytest.approx(P.sigma_vy, rel=0.05)
+        # noise-free: error driven only by the fault rate (|f'| <= 0.016 rad/s) through
+        # poles faster than 7 1/s -> a few 1e-4
+        assert m[f"rmse_f_{k}_noisefree"] < 1e-3
+        assert m[f"rmse_r_{k}_noisefree"] < 1e-3
+        assert m[f"fault_delay_{k}"] < 0.1
+        # with noise, fault RMSE below 10 % of the fault offset (0.01 rad)
+        assert m[f"rmse_f_{k}"] < 1e-3
+
+
+def test_assumption2_holds_on_run(m):
+    assert m["max_abs_hdot"] < m["phi_design"]
+    assert m["max_slip_deg"] < np.degrees(P.alpha_fit_max)   # inside the identified range
+
+
+def test_figures_written(m):
+    for name in ("fig3_steering", "fig4_vy", "fig5_yaw_rate", "fig6_fault",
+                 "fig7_membership_derivatives", "feasibility_map", "fuzzy_forces_fit"):
+        assert (m["_dir"] / f"{name}.png").exists()
