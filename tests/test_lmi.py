@@ -92,3 +92,15 @@ def test_diagonal_variable_and_objective():
     P = sol["P"]
     assert P[0, 1] == 0 and P[1, 0] == 0
     assert sol.objective == pytest.approx(max(P[0, 0], P[1, 1]), rel=1e-4)
+
+
+def test_nonnegative_with_margin_is_certified():
+    # Metzler-type constraint: off-diagonal of A - L C >= 0 with a solver margin
+    A = np.array([[-1.0, -0.5], [0.3, -2.0]])
+    C = np.array([[0.0, 1.0]])
+    d = LMIDesign("metzler")
+    d.matrix("L", (2, 1))
+    d.nonnegative("offdiag", lambda V: (A - V.L @ C)[0:1, 1:2], margin=1e-3)
+    sol = d.solve(objective=lambda V: V.L[0, 0] ** 2 + V.L[1, 0] ** 2)
+    assert (A - sol["L"] @ C)[0, 1] == pytest.approx(1e-3, abs=1e-7)
+    assert sol.certificate.ok

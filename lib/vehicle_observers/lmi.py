@@ -186,6 +186,7 @@ class LMIDesign:
         self._raw: dict[str, cp.Variable] = {}
         self._cons: list[tuple[str, str, Builder]] = []
         self._extra: list[Callable] = []
+        self._margins: dict[str, float] = {}
 
     # ---- variables -------------------------------------------------------------------
     def _add(self, name, expr, raw):
@@ -228,9 +229,14 @@ class LMIDesign:
         """Require ``builder(V) > 0`` (positive definite)."""
         self._cons.append((name, "pos", builder))
 
-    def nonnegative(self, name: str, builder: Builder):
-        """Require every entry of ``builder(V)`` to be >= 0 (e.g. a Metzler off-diagonal)."""
+    def nonnegative(self, name: str, builder: Builder, margin: float = 0.0):
+        """Require every entry of ``builder(V)`` to be >= 0 (e.g. a Metzler off-diagonal).
+
+        ``margin`` > 0 asks the solver for entries >= margin, so its round-off (~1e-12)
+        cannot fail the certificate, which still checks >= 0 on the recomputed matrix.
+        """
         self._cons.append((name, "nonneg", builder))
+        self._margins[name] = float(margin)
 
     def extra(self, fn: Callable):
         """Additional cvxpy constraints ``fn(V) -> list`` (e.g. gain bounds), not certified."""
@@ -244,10 +250,10 @@ class LMIDesign:
     def _cvx_constraints(self):
         V = Values(self._vars)
         out = []
-        for _name, kind, b in self._cons:
+        for name, kind, b in self._cons:
             M = b(V)
             if kind == "nonneg":
-                out.append(M >= 0)
+                out.append(M >= self._margins.get(name, 0.0))
                 continue
             if not _is_expr(M):
                 continue  # constant matrix: checked in the certificate only
