@@ -4,7 +4,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
 from vehicle_observers import kalman as K
 from vehicle_observers.lateral import LateralParams
 from vehicle_observers.logs import DriveLog, load_revs

@@ -49,7 +49,8 @@ def _parser():
 
 
 
-def cmd_observers(out=sys.stdout):
+def cmd_observers(out=None):
+    out = out or sys.stdout
     from .registry import BASE_COLUMNS, available
 
     print(f"every observer reads: {', '.join(BASE_COLUMNS)}", file=out)
@@ -58,8 +59,8 @@ def cmd_observers(out=sys.stdout):
         opt = ", ".join(s.optional_columns) or "-"
         veh = ", ".join(k for k in s.vehicle_keys)
         flags = ("causal" if s.causal else "OFFLINE") + (", interval" if s.interval else "")
-        print(f"{name:16s} {s.description}", file=out)
-        print(f"{'':16s}   needs columns: {need}; uses if present: {opt}; vehicle keys: {veh}; "
+        print(f"{name:18s} {s.description}", file=out)
+        print(f"{'':18s}   needs columns: {need}; uses if present: {opt}; vehicle keys: {veh}; "
               f"{flags}", file=out)
     return 0
 
@@ -77,7 +78,8 @@ def _fmt_metrics(m: dict) -> list[str]:
     return lines
 
 
-def cmd_estimate(args, out=sys.stdout):
+def cmd_estimate(args, out=None):
+    out = out or sys.stdout
     import numpy as np
 
     from .errors import InfeasibleDesign, LogFormatError

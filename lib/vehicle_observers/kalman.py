@@ -67,7 +67,8 @@ class KalmanTuning:
 
     q_vy [(m/s^2)^2 s], q_r [(rad/s^2)^2 s], q_b [(m/s^3)^2 s]: white-noise intensities on
     v_y', r', b_ay'. R_r [(rad/s)^2], R_ay [(m/s^2)^2]: measurement noise variances.
-    P0: initial covariance diagonal of ``[v_y, r, b_ay]``.
+    P0: initial covariance diagonal of ``[v_y, r, b_ay]`` (the v_y entry is capped at
+    ``(0.05 v_x(0))^2``, see :func:`_p0`).
     """
 
     q_vy: float = 0.5
@@ -386,7 +387,7 @@ def _rts(Xf, Pf, Xp, Pp, Fs):
     Xs = Xf.copy()
     Ps = Pf.copy()
     for k in range(N - 2, -1, -1):
-        G = Pf[k] @ Fs[k + 1].T @ np.linalg.inv(Pp[k + 1])
+        G = Pf[k] @ Fs[k + 1].T @ np.linalg.pinv(Pp[k + 1])
         Xs[k] = Xf[k] + G @ (Xs[k + 1] - Xp[k + 1])
         Ps[k] = Pf[k] + G @ (Ps[k + 1] - Pp[k + 1]) @ G.T
     return Xs, Ps
@@ -425,6 +426,20 @@ def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float |
                    delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0)
 
 
+#: initial sideslip standard deviation [rad] used to cap the initial v_y variance
+BETA0_STD = 0.05
+
+
+def _p0(P0, inp: _Inputs) -> np.ndarray:
+    """Initial covariance diagonal: ``P0`` with the v_y variance capped at
+    ``(BETA0_STD v_x(0))^2``, i.e. an initial sideslip of a few degrees. At walking speed a
+    1 m/s v_y uncertainty means slip angles far past the tyre peak; sigma points there lock
+    the UKF onto the saturated-tyre branch, where v_y is unobservable."""
+    p = np.array(P0, dtype=float)
+    p[0] = min(p[0], (BETA0_STD * float(inp.vx[0])) ** 2)
+    return p
+
+
 def _forces(X, inp: _Inputs, params: LateralParams):
     a_f = inp.delta - (X[:, 0] + params.a_f * X[:, 1]) / inp.vx
     a_r = -(X[:, 0] - params.a_r * X[:, 1]) / inp.vx
@@ -439,7 +454,7 @@ def ekf(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None
     inp = prepare(log, use_ay)
     Parr = params.as_array()
     args = (inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, Parr, tuning.theta(), inp.x0,
-            np.asarray(tuning.P0, float), store)
+            _p0(tuning.P0, inp), store)
     t0 = time.perf_counter()
     Xf, Pf, Pfd, Xp, Pp, Fs, nll = _ekf(*args)
     sec = time.perf_counter() - t0
@@ -468,7 +483,7 @@ def nll(log_or_inputs, params: LateralParams, tuning: KalmanTuning) -> float:
     """Innovation negative log-likelihood of the measured channels under ``tuning``."""
     inp = log_or_inputs if isinstance(log_or_inputs, _Inputs) else prepare(log_or_inputs)
     out = _ekf(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, params.as_array(),
-               tuning.theta(), inp.x0, np.asarray(tuning.P0, float), False)
+               tuning.theta(), inp.x0, _p0(tuning.P0, inp), False)
     return float(out[-1])
 
 
@@ -513,7 +528,7 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     log = thin(log, every)
     inp = prepare(log, use_ay)
     Parr = params.as_array()
-    P0 = np.asarray(start.P0, float)
+    P0 = _p0(start.P0, inp)
     free = [0, 1, 2, 3, 4] if inp.use_ay else [0, 1, 3]
     bounds = [TUNE_BOUNDS[i] for i in free]
     th0 = start.theta()
@@ -594,7 +609,7 @@ def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
     dz = 2 if inp.use_ay else 1
     kf = ExtendedKalmanFilter(dim_x=3, dim_z=dz)
     kf.x = inp.x0.copy()
-    kf.P = np.diag(np.asarray(tuning.P0, float))
+    kf.P = np.diag(_p0(tuning.P0, inp))
     kf.R = np.diag([tuning.R_r, tuning.R_ay][:dz])
     q = tuning.theta()[:3].copy()
     if not inp.use_ay:
@@ -655,7 +670,7 @@ def ukf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
     dt0 = float(np.median(np.diff(inp.t))) if len(inp.t) > 1 else 0.01
     kf = UnscentedKalmanFilter(dim_x=3, dim_z=dz, dt=dt0, hx=hx, fx=fx, points=pts)
     kf.x = inp.x0.copy()
-    kf.P = np.diag(np.asarray(tuning.P0, float))
+    kf.P = np.diag(_p0(tuning.P0, inp))
     kf.R = np.diag([tuning.R_r, tuning.R_ay][:dz])
     q = tuning.theta()[:3].copy()
     if not inp.use_ay:
