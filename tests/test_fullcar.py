@@ -49,7 +49,8 @@ def test_sign_conventions():
 
 def test_free_decay_energy_balance():
     """No road input: the energy lost over 2 s equals the integrated damper dissipation
-    (trapezoid on the RK4 samples, dt = 0.2 ms: agreement to 1e-4 relative)."""
+    (trapezoid on the exactly discretised samples, dt = 0.2 ms: agreement to 1e-4
+    relative, the trapezoid error)."""
     dt = 2e-4
     x0 = np.zeros(14)
     x0[4] = 0.05

@@ -139,31 +139,54 @@ def modal_summary(p: FullCarParams) -> dict:
 
 
 @njit(cache=True)
-def _simulate_lin(x0, A, Bu, Bd, U, dt):
-    """RK4 for ``x' = A x + Bu U(t) + Bd U'`` with U linear between samples (U' constant)."""
+def _simulate_exact(x0, Phi, Gu, Gw, U, dt):
+    """``x_{k+1} = Phi x_k + Gu U_k + Gw (U_{k+1} - U_k)/dt``: exact for U linear between
+    samples (first-order hold)."""
     N = U.shape[0]
     n = x0.shape[0]
+    m = U.shape[1]
     X = np.empty((N, n))
     x = x0.copy()
+    xn = np.empty(n)
     for k in range(N):
-        X[k] = x
+        for i in range(n):
+            X[k, i] = x[i]
         if k == N - 1:
             break
-        ud = (U[k + 1] - U[k]) / dt
-        um = 0.5 * (U[k] + U[k + 1])
-        fd = Bd @ ud
-        k1 = A @ x + Bu @ U[k] + fd
-        k2 = A @ (x + 0.5 * dt * k1) + Bu @ um + fd
-        k3 = A @ (x + 0.5 * dt * k2) + Bu @ um + fd
-        k4 = A @ (x + dt * k3) + Bu @ U[k + 1] + fd
-        x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += Phi[i, j] * x[j]
+            for j in range(m):
+                acc += Gu[i, j] * U[k, j] + Gw[i, j] * (U[k + 1, j] - U[k, j]) / dt
+            xn[i] = acc
+        for i in range(n):
+            x[i] = xn[i]
     return X
+
+
+def discretise(p: FullCarParams, dt: float):
+    """Exact discretisation of (23) for road inputs linear between samples:
+    ``(Phi, Gu, Gw)`` from the exponential of ``[[A, B_u, B_d], [0, 0, I], [0, 0, 0]] dt``
+    (state, road elevation, road slope)."""
+    from scipy.linalg import expm
+
+    A, Bu, Bd = p.state_space()
+    n, m = A.shape[0], Bu.shape[1]
+    Z = np.zeros((n + 2 * m, n + 2 * m))
+    Z[:n, :n] = A
+    Z[:n, n:n + m] = Bu
+    Z[:n, n + m:] = Bd
+    Z[n:n + m, n + m:] = np.eye(m)
+    E = expm(Z * dt)
+    return E[:n, :n].copy(), E[:n, n:n + m].copy(), E[:n, n + m:].copy()
 
 
 def simulate(U, dt: float, p: FullCarParams, x0=None) -> np.ndarray:
     """Simulate (23) for road inputs ``U`` (N, 4) [m] sampled every ``dt`` s (linear in
-    between). Returns states (N, 14) ``[q, q']``; starts at rest (``x0`` = static
-    equilibrium for ``U[0]``) unless ``x0`` given."""
+    between; exact discretisation, see :func:`discretise`). Returns states (N, 14)
+    ``[q, q']``; starts at rest (``x0`` = static equilibrium for ``U[0]``) unless ``x0``
+    given."""
     U = np.ascontiguousarray(U, dtype=float)
     if U.ndim != 2 or U.shape[1] != 4:
         raise ValueError(f"U must be (N, 4) road elevations (RL, RR, FL, FR), got {U.shape}")
@@ -174,8 +197,8 @@ def simulate(U, dt: float, p: FullCarParams, x0=None) -> np.ndarray:
         raise ValueError(f"dt must be > 0, got {dt}")
     if x0 is None:
         x0 = np.concatenate([static_deflection(U[0], p), np.zeros(7)])
-    A, Bu, Bd = p.state_space()
-    return _simulate_lin(np.asarray(x0, dtype=float), A, Bu, Bd, U, float(dt))
+    Phi, Gu, Gw = discretise(p, float(dt))
+    return _simulate_exact(np.asarray(x0, dtype=float), Phi, Gu, Gw, U, float(dt))
 
 
 def outputs(X, U, Ud, p: FullCarParams, paper: bool = False) -> np.ndarray:

@@ -117,16 +117,34 @@ def part_b_road(name: str, T: float, seed: int = 0):
     return _road.iso8608_road(name, speed_iso * T + 10, seed=seed), speed_iso, 0.0
 
 
+_TRUTH_CACHE: dict = {}
+
+
+def part_b_truth(name: str, T: float, seed: int = 0, dt: float = dt_road,
+                 p: FullCarParams = fullcar):
+    """Full-car truth on road ``name`` (cached per arguments, arrays read-only):
+    ``(road, speed, t, U, X, Y)``."""
+    key = (name, float(T), int(seed), float(dt), p)
+    if key not in _TRUTH_CACHE:
+        rd, V, cl = part_b_road(name, T, seed)
+        t = np.arange(int(round(T / dt))) * dt
+        U = rd.wheel_inputs(t, V, p.a + p.b, contact_length=cl)
+        X = _fc.simulate(U, dt, p)
+        Y = _fc.outputs(X, None, None, p)
+        for a in (t, U, X, Y):
+            a.setflags(write=False)
+        if len(_TRUTH_CACHE) > 8:
+            _TRUTH_CACHE.clear()
+        _TRUTH_CACHE[key] = (rd, V, t, U, X, Y)
+    return _TRUTH_CACHE[key]
+
+
 def part_b_run(name: str, T: float = 20.0, gains=None, errors=None, seed: int = 0,
                t_skip: float = 1.0, dt: float = dt_road, z_err0: float = 5e-3,
                noise_z: float = 0.0, p: FullCarParams = fullcar) -> dict:
     """Simulate the full car on road ``name`` and run the UIO; metrics after ``t_skip``."""
     gains = road_gains if gains is None else gains
-    rd, V, cl = part_b_road(name, T, seed)
-    t = np.arange(int(round(T / dt))) * dt
-    U = rd.wheel_inputs(t, V, p.a + p.b, contact_length=cl)
-    X = _fc.simulate(U, dt, p)
-    Y = _fc.outputs(X, None, None, p)
+    rd, V, t, U, X, Y = part_b_truth(name, T, seed, dt, p)
     if noise_z > 0:
         Y = Y.copy()
         Y[:, :4] += np.random.default_rng(seed + 1).normal(scale=noise_z, size=(len(t), 4))
