@@ -228,3 +228,32 @@ def test_simulation_input_errors(model, designs):
         uio.run_observer(g, np.zeros(5), np.zeros((5, 2)), np.ones((5, 2)), 1e-3)
     with pytest.raises(ValueError, match="too fast"):
         uio.run_observer(g, np.zeros(5), np.zeros((5, 2)), np.tile([1.0, 0.0], (5, 1)), 0.1)
+
+
+def test_undetectable_fault_raises(model):
+    """No sensor part and no steering authority (C_f = 0): the fault is invisible."""
+    import dataclasses
+
+    ty = dataclasses.replace(model.tyres, C_f=(0.0, 0.0))
+    bad = dataclasses.replace(model, tyres=ty, F_s=np.zeros((2, 1)))
+    with pytest.raises(uio.AssumptionError, match="not detectable"):
+        uio.structure(bad)
+
+
+def test_truth_model_is_the_uncertain_ts_form(model):
+    """The simulated vehicle (1)+(2)+(10) equals sum h_i (A_i x + B_i (delta + f))
+    + M F (N_a,i x + N_b,i (delta + f)): checked by a one-step difference quotient."""
+    rng = np.random.default_rng(7)
+    Na, Nb = model.uncertainty_matrices()
+    dt = 1e-7
+    for _ in range(5):
+        x = rng.normal(0, [0.5, 0.2])
+        d, f, F = rng.normal(0, 0.03), rng.normal(0, 0.01), rng.uniform(-1, 1)
+        X = uio.simulate_truth(model, x, np.full(2, d), f, F, dt, substeps=1)
+        fd = (X[1] - X[0]) / dt
+        h = model.tyres.memberships(uio.slip_front(model, x[None, :], d, f))[0]
+        u = d + f
+        ts = sum(h[i] * (model.A[i] @ x + model.B[i][:, 0] * u
+                         + model.M[:, 0] * F * (Na[i] @ x + Nb[i][:, 0] * u)[0])
+                 for i in range(2))
+        np.testing.assert_allclose(fd, ts, rtol=1e-5, atol=1e-6)
