@@ -54,7 +54,7 @@ def run(quick: bool = False) -> list[dict]:
     Yb = fullcar.outputs(X, None, None, p)
     n = len(t)
     sec = _time(lambda: fullcar.simulate(U, dt, p))
-    rows.append({"component": "full-car truth RK4 (14 states)", "steps": n, "seconds": sec,
+    rows.append({"component": "full-car truth, exact FOH (14 st.)", "steps": n, "seconds": sec,
                  "us_per_step": 1e6 * sec / n, "dt": dt})
     for mode in ("sign", "sat"):
         g = R.road_gains.with_(mode=mode)
