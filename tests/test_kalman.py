@@ -154,3 +154,13 @@ def test_real_log_target_with_first_120s_tuning(revs):
     e = rmse(res.vy, revs.vy)
     assert e <= 0.24
     assert rmse(np.zeros(len(revs)), revs.vy) == pytest.approx(0.743, abs=0.001)
+
+
+def test_inv3_matches_numpy_and_handles_singular():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        M = rng.standard_normal((3, 3))
+        A = M @ M.T + 0.01 * np.eye(3)
+        assert np.allclose(K._inv3(A), np.linalg.inv(A), rtol=1e-9, atol=1e-9)
+    S = np.diag([1.0, 2.0, 0.0])  # inert bias state with zero variance
+    assert np.allclose(K._inv3(S), np.linalg.pinv(S))

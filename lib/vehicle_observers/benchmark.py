@@ -9,8 +9,9 @@ Datasets (:func:`datasets`)
     the real log ``revs250lm``.
 
 Observers: every registry entry whose required columns the dataset has. The filterpy EKF and
-UKF (pure Python, ~0.1-1 ms per step) run on the first ``filterpy_steps`` samples only; their
-rows say so (``samples`` column) and their accuracy is over that window.
+UKF (pure Python, ~0.1-1 ms per step) run on ``filterpy_steps`` samples only, starting at the
+first scored sample; their rows say so (``samples`` column), their accuracy is over that
+window and they get no ratio against the whole-run EKF/RTS.
 
 Kalman noise tuning: ML on the measured channels of each log's first 120 s
 (:func:`registry.kalman_tuning`); the 7 s sine-with-dwell is too short for ML and reuses the
@@ -53,6 +54,15 @@ COLUMNS = ["dataset", "observer", "causal", "samples", "rmse_vy", "max_vy", "rms
            "realtime_factor", "design_s", "ratio_vy_vs_ekf", "ratio_vy_vs_rts",
            "speedup_vs_filterpy_ekf"]
 SLOW = ("ekf-filterpy", "ukf")
+#: one colour per observer in every plot
+COLORS = {"ekf": "C1", "ekf-filterpy": "C0", "ukf": "C2", "rts": "C3", "ts-yacine2015": "C4",
+          "interval-ifqir2017": "C5"}
+
+
+def _color(name, j=0):
+    return COLORS.get(name, f"C{6 + j % 4}")
+
+
 #: literature references on the Revs log (issue 8): v_y RMSE [m/s]
 REVS_REFERENCES = {"vy = 0": 0.743, "their KF (linear bicycle, r + a_y)": 0.350,
                    "open-loop linear bicycle": 0.282, "offline factor graph": 0.242}
@@ -60,7 +70,7 @@ REVS_REFERENCES = {"vy = 0": 0.743, "their KF (linear bicycle, r + a_y)": 0.350,
 
 def datasets(seed: int = 0, quick: bool = False) -> dict[str, tuple[DriveLog, str, np.ndarray]]:
     """``{name: (log, vehicle file, score mask)}``. Quick: the first 40 s of the Satory run
-    and the first 120 s of the Revs log."""
+    (the Revs log is always used whole: the numba estimators need ~0.1 s for it)."""
     from .scenarios import emulated_satory, sine_with_dwell
 
     out = {}
@@ -70,8 +80,6 @@ def datasets(seed: int = 0, quick: bool = False) -> dict[str, tuple[DriveLog, st
     swd = sine_with_dwell(seed=seed)
     out["swd"] = (swd, "yacine2015", _emu_mask(swd))
     revs = load_revs()
-    if quick:
-        revs = revs.segment(revs.t[0], revs.t[0] + 120.0)
     out["revs"] = (revs, "revs250lm", np.ones(len(revs), bool))
     return out
 
@@ -100,9 +108,12 @@ def _warm_up(observers, vehicles):
 
 
 def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
-        observers=None, progress=None) -> dict:
-    """Run the benchmark. Returns ``{"rows": [...], "estimates": {(dataset, obs): Estimates},
-    "logs": {...}, "tunings": {...}, "errors": [...]}``."""
+        observers=None, progress=None, tune_maxiter: int = 300) -> dict:
+    """Run the benchmark (``tune_maxiter``: Nelder-Mead iterations per start of the ML
+    tuning; do not lower it: a stopped-early search can leave large ``q_vy, q_b`` with which
+    the EKF drifts onto the saturated-tyre branch, e.g. 13.5 m/s RMSE on the quick n3 run
+    with 120 iterations against 0.0015 with 300). Returns ``{"rows": [...], "estimates":
+    {(dataset, obs): Estimates}, "logs": {...}, "tunings": {...}, "errors": [...]}``."""
     filterpy_steps = filterpy_steps or (3000 if quick else 60000)
     obs = RG.available()
     if observers is not None:
@@ -116,7 +127,7 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
         if dname == "swd":
             tun, tsec = tunings["satory_n1"]
         else:
-            tun, tsec = RG.kalman_tuning(log, veh)
+            tun, tsec = RG.kalman_tuning(log, veh, maxiter=tune_maxiter)
         tunings[dname] = (tun, tsec)
         for oname, spec in obs.items():
             if progress:
@@ -127,8 +138,11 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
                 continue
             lg, mk = log, mask
             if oname in SLOW and len(log) > filterpy_steps:
-                lg = log.segment(log.t[0], log.t[filterpy_steps - 1])
-                mk = mask[:filterpy_steps]
+                # window of filterpy_steps samples starting where the scoring mask starts
+                i0 = int(np.argmax(mask))
+                i1 = min(i0 + filterpy_steps, len(log))
+                lg = log.segment(log.t[i0], log.t[i1 - 1])
+                mk = mask[i0:i1]
             try:
                 est = spec.run(lg, veh, tuning=tun)
             except Exception as exc:  # noqa: BLE001 - reported in the table
@@ -145,7 +159,8 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
             rows.append(row)
     _ratios(rows)
     return {"rows": rows, "estimates": ests, "logs": {k: v[0] for k, v in data.items()},
-            "masks": {k: v[2] for k, v in data.items()}, "tunings": tunings, "errors": errors}
+            "masks": {k: v[2] for k, v in data.items()}, "tunings": tunings, "errors": errors,
+            "quick": bool(quick), "seed": int(seed)}
 
 
 def _ratios(rows):
@@ -262,7 +277,7 @@ def fig_rmse(rows):
                 if r is not None and np.isfinite(r.get(key, np.nan)):
                     xs.append(i + j * w)
                     ys.append(r[key])
-            a.bar(xs, ys, w, label=o, color=f"C{j}")
+            a.bar(xs, ys, w, label=o, color=_color(o, j))
     for a, lab in zip(ax, ("v_y RMSE [m/s]", "cost per step [us]")):
         a.set_xticks(np.arange(len(ds)) + 0.4 - w / 2)
         a.set_xticklabels(ds)
@@ -296,10 +311,10 @@ def fig_revs(log, ests, t_zoom=None):
             if "vy_lo_mps" in e.columns:
                 _, lo, hi = decimate(log.t[m], e.columns["vy_lo_mps"][m],
                                      e.columns["vy_hi_mps"][m], max_points=3000)
-                a.fill_between(te, lo, hi, color=f"C{k + 1}", alpha=0.15, lw=0,
+                a.fill_between(te, lo, hi, color=_color(n, k), alpha=0.15, lw=0,
                                label=f"{n} [lo, hi]")
             else:
-                a.plot(te, v, color=f"C{k + 1}", lw=0.8, label=n)
+                a.plot(te, v, color=_color(n, k), lw=0.8, label=n)
         a.plot(tt, ref, color="k", lw=0.9, label="INS reference")
         a.set_ylabel("v_y [m/s]")
     ax[0].legend(ncol=5, fontsize=7, loc="upper right")
@@ -319,7 +334,7 @@ def fig_losses(loss_rows):
         x = np.arange(len(rr))
         w = 0.8 / max(len(names), 1)
         for j, n in enumerate(names):
-            a.bar(x + j * w, [r.get(n, np.nan) for r in rr], w, label=n, color=f"C{j + 1}")
+            a.bar(x + j * w, [r.get(n, np.nan) for r in rr], w, label=n, color=_color(n, j))
         a.set_xticks(x + 0.4 - w / 2)
         a.set_xticklabels([f"{r['bin']}\n{100 * r['share']:.0f} %" for r in rr], fontsize=7)
         a.set_xlabel(f)
@@ -378,6 +393,22 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
     fig.savefig(out_dir / "rmse_cost.png", dpi=110, metadata={"Software": None})
     plt.close(fig)
     paths.append(out_dir / "rmse_cost.png")
+    # metrics.json in the notebooks' format (tests/test_repository.py checks the file list)
+    import json
+
+    from .reporting import _jsonable
+
+    names = sorted({p.name for p in paths} | {"metrics.json"})
+    doc = {"notebook": "benchmark", "quick": bool(res.get("quick", False)),
+           "seed": int(res.get("seed", 0)),
+           "metrics": {k: {"value": _jsonable(v), "unit": "", "note": ""}
+                       for k, v in key_metrics(res).items()},
+           "claims": [], "files": names}
+    (out_dir / "metrics.json").write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    paths.append(out_dir / "metrics.json")
+    for f in out_dir.iterdir():  # leftovers of an earlier run with other options
+        if f.is_file() and f.name not in names and f.suffix in (".csv", ".md", ".png", ".json"):
+            f.unlink()
     return paths
 
 
@@ -406,3 +437,32 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def key_metrics(res: dict) -> dict:
+    """Flat metrics for the notebook / tests: ``<dataset>.<observer>.<metric>`` for the
+    accuracy, cost and ratio columns, plus ``revs.best_causal`` (name) /
+    ``revs.best_causal_rmse_vy`` over the causal observers run on the whole real log and
+    ``min_speedup_vs_filterpy_ekf`` over the compiled causal observers (all datasets; the
+    offline RTS smoother is excluded)."""
+    out = {}
+    keep = ("rmse_vy", "max_vy", "rmse_beta", "rmse_r", "rmse_Ff", "rmse_Fr", "enclosure_vy",
+            "width_vy", "enclosure_r", "width_r", "us_per_step", "realtime_factor", "design_s",
+            "ratio_vy_vs_ekf", "ratio_vy_vs_rts", "speedup_vs_filterpy_ekf", "samples")
+    for r in res["rows"]:
+        for k in keep:
+            v = r.get(k)
+            if v is not None and not (isinstance(v, float) and not np.isfinite(v)):
+                out[f"{r['dataset']}.{r['observer']}.{k}"] = v
+    n_revs = len(res["logs"]["revs"]) if "revs" in res["logs"] else 0
+    causal = [r for r in res["rows"] if r["dataset"] == "revs" and r["causal"]
+              and r["samples"] == n_revs and "rmse_vy" in r]
+    if causal:
+        best = min(causal, key=lambda r: r["rmse_vy"])
+        out["revs.best_causal"] = best["observer"]
+        out["revs.best_causal_rmse_vy"] = best["rmse_vy"]
+    sp = [r["speedup_vs_filterpy_ekf"] for r in res["rows"]
+          if r["observer"] not in SLOW and r["causal"] and "speedup_vs_filterpy_ekf" in r]
+    if sp:
+        out["min_speedup_vs_filterpy_ekf"] = float(min(sp))
+    return out

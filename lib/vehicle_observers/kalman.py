@@ -381,13 +381,38 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
 
 
 @njit(cache=True)
+def _inv3(A):
+    """Inverse of a symmetric positive semi-definite 3x3 matrix by cofactors; falls back to
+    the pseudo-inverse when it is (numerically) singular (e.g. an inert b_ay with zero
+    variance)."""
+    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
+    scale = A[0, 0] * A[1, 1] * A[2, 2]
+    if not (abs(det) > 1e-12 * abs(scale)) or scale == 0.0:
+        return np.linalg.pinv(A)
+    out = np.empty((3, 3))
+    out[0, 0] = c00 / det
+    out[1, 0] = c01 / det
+    out[2, 0] = c02 / det
+    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) / det
+    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) / det
+    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) / det
+    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) / det
+    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) / det
+    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) / det
+    return out
+
+
+@njit(cache=True)
 def _rts(Xf, Pf, Xp, Pp, Fs):
     """Rauch-Tung-Striebel backward pass; Fs[k+1] maps k -> k+1, Xp/Pp[k+1] its prior."""
     N, n = Xf.shape
     Xs = Xf.copy()
     Ps = Pf.copy()
     for k in range(N - 2, -1, -1):
-        G = Pf[k] @ Fs[k + 1].T @ np.linalg.pinv(Pp[k + 1])
+        G = Pf[k] @ np.ascontiguousarray(Fs[k + 1].T) @ _inv3(Pp[k + 1])
         Xs[k] = Xf[k] + G @ (Xs[k + 1] - Xp[k + 1])
         Ps[k] = Pf[k] + G @ (Ps[k + 1] - Pp[k + 1]) @ G.T
     return Xs, Ps

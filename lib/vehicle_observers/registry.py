@@ -96,7 +96,7 @@ def available() -> dict[str, ObserverSpec]:
 
 # ------------------------------------------------------------------ Kalman family -------
 def kalman_tuning(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WINDOW_S,
-                  progress=None):
+                  progress=None, maxiter: int = 300):
     """The noise tuning used by the Kalman observers: ``tuning`` if given, else the vehicle
     file's ``[kalman]`` table, else ML on the measured channels of the log's first
     ``window_s`` seconds (:func:`kalman.tune`). Returns ``(tuning, seconds)``."""
@@ -105,7 +105,8 @@ def kalman_tuning(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WI
     if vehicle.kalman is not None:
         return vehicle.kalman, 0.0
     t0 = time.perf_counter()
-    tun = kalman.tune(log, vehicle.params, window_s=window_s, progress=progress)
+    tun = kalman.tune(log, vehicle.params, window_s=window_s, progress=progress,
+                      maxiter=maxiter)
     return tun, time.perf_counter() - t0
 
 
