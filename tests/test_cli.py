@@ -202,3 +202,19 @@ def test_error_nonpositive_speed_and_usage(capsys, files):
     assert_one_line_error(code, err, "'vx_mps' must be > 0", "row 2")
     code, _, err = run_cli(capsys, "estimate", files["log"], "--observer", "ekf")
     assert code == EXIT_INPUT and "Traceback" not in err and "--vehicle" in err
+
+
+def test_tune_prints_a_kalman_table_that_the_loader_accepts(capsys, files):
+    code, out, err = run_cli(capsys, "tune", files["log"], "--vehicle", "revs250lm",
+                             "--tune-window", "10")
+    assert code == 0, err
+    assert "[kalman]" in out and "ML on measured channels" in out
+    veh = files["dir"] / "tuned.toml"
+    veh.write_text(files["base"] + "\n" + out)
+    v = load_vehicle(veh)
+    seg = load_log(files["log"]).segment(300.0, 310.0)
+    ref = K.tune(seg, load_vehicle("revs250lm").params)
+    # the printed table (6 significant digits) is the library's tuning of that window
+    assert np.allclose(v.kalman.theta(), ref.theta(), rtol=1e-5)
+    code, _, err = run_cli(capsys, "tune", files["log"], "--vehicle", "nonexistent.toml")
+    assert_one_line_error(code, err, "nonexistent.toml")

@@ -3,6 +3,10 @@
     python -m vehicle_observers observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
         --out EST.csv [--tune-window 120] [--progress/--no-progress]
+    python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
+
+``tune`` prints the ML noise tuning of the Kalman observers as a ``[kalman]`` TOML table:
+append it to the vehicle file to skip the tuning in later runs.
 
 ``LOG.csv`` follows the schema of :mod:`vehicle_observers.logs` (``t_s, vx_mps,
 delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...).
@@ -41,6 +45,11 @@ def _parser():
     e.add_argument("--tune-window", type=float, default=120.0,
                    help="seconds of the log used for ML noise tuning of the Kalman observers "
                         "when the vehicle file has no [kalman] table (default 120)")
+    tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
+                                     "a [kalman] table for the vehicle file")
+    tu.add_argument("log")
+    tu.add_argument("--vehicle", required=True)
+    tu.add_argument("--tune-window", type=float, default=120.0)
     g = e.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
@@ -160,6 +169,28 @@ def cmd_estimate(args, out=None):
     return 0
 
 
+def cmd_tune(args, out=None):
+    out = out or sys.stdout
+    from .errors import LogFormatError
+    from .kalman import tune
+    from .logs import load_log
+    from .vehicle import VehicleFileError, load_vehicle
+
+    if not args.tune_window > 0:
+        raise CLIError(f"--tune-window must be > 0 s, got {args.tune_window}")
+    try:
+        vehicle = load_vehicle(args.vehicle)
+        log = load_log(args.log)
+    except (LogFormatError, VehicleFileError) as exc:
+        raise CLIError(str(exc)) from None
+    tun = tune(log, vehicle.params, window_s=args.tune_window)
+    print(f"# {tun.source}", file=out)
+    print("[kalman]", file=out)
+    for k in ("q_vy", "q_r", "q_b", "R_r", "R_ay"):
+        print(f"{k} = {getattr(tun, k):.6g}", file=out)
+    return 0
+
+
 def main(argv=None) -> int:
     parser = _parser()
     try:
@@ -169,6 +200,8 @@ def main(argv=None) -> int:
     try:
         if args.cmd == "observers":
             return cmd_observers()
+        if args.cmd == "tune":
+            return cmd_tune(args)
         return cmd_estimate(args)
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
