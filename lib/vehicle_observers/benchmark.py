@@ -54,6 +54,7 @@ COLUMNS = ["dataset", "observer", "causal", "samples", "rmse_vy", "max_vy", "rms
            "realtime_factor", "design_s", "ratio_vy_vs_ekf", "ratio_vy_vs_rts",
            "speedup_vs_filterpy_ekf"]
 SLOW = ("ekf-filterpy", "ukf")
+KALMAN = ("ekf", "ekf-filterpy", "ukf", "rts")
 #: one colour per observer in every plot
 COLORS = {"ekf": "C1", "ekf-filterpy": "C0", "ukf": "C2", "rts": "C3", "ts-yacine2015": "C4",
           "interval-ifqir2017": "C5"}
@@ -124,11 +125,14 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
     rows, ests, tunings, errors = [], {}, {}, []
     for dname, (log, vname, mask) in data.items():
         veh = vehicles[vname]
-        if dname == "swd":
+        if not any(o in KALMAN for o in obs):
+            tun, tsec = None, 0.0
+        elif dname == "swd":
             tun, tsec = tunings["satory_n1"]
         else:
             tun, tsec = RG.kalman_tuning(log, veh, maxiter=tune_maxiter)
-        tunings[dname] = (tun, tsec)
+        if tun is not None:
+            tunings[dname] = (tun, tsec)
         for oname, spec in obs.items():
             if progress:
                 progress(f"{dname}: {oname}")
@@ -435,9 +439,6 @@ def main(argv=None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
-
 
 def key_metrics(res: dict) -> dict:
     """Flat metrics for the notebook / tests: ``<dataset>.<observer>.<metric>`` for the
@@ -466,3 +467,7 @@ def key_metrics(res: dict) -> dict:
     if sp:
         out["min_speedup_vs_filterpy_ekf"] = float(min(sp))
     return out
+
+
+if __name__ == "__main__":
+    sys.exit(main())
