@@ -36,7 +36,10 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-import tomllib
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser is the 'tomli' package
+    import tomli as tomllib
 
 from .kalman import KalmanTuning
 from .lateral import LateralParams
