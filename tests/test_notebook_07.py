@@ -77,3 +77,13 @@ def test_claims_and_figures(m):
     assert claims["RTS smoother frames every RMSE"]["verdict"] in ("reproduced", "differs")
     for f in ("rmse_cost.png", "revs_vy.png", "losses_revs.png"):
         assert (m["_dir"] / f).exists()
+
+
+def test_where_the_real_log_is_lost(m):
+    # the estimates overshoot the INS amplitude; the smoother more than the filter
+    assert m["revs_amplitude_ratio_ekf"] < 1.0
+    assert m["revs_amplitude_ratio_rts"] < m["revs_amplitude_ratio_ekf"]
+    # the EKF error grows with the lateral acceleration (tyre saturation region)
+    lo = m["revs_losses"]["|a_y| [m/s^2] [0, 4)"]["ekf"]
+    hi = m["revs_losses"]["|a_y| [m/s^2] [10, 20)"]["ekf"]
+    assert hi > 1.5 * lo

@@ -207,6 +207,13 @@ def revs_losses(log: DriveLog, ests: dict, names=("ekf", "ukf", "rts", "interval
     return rows
 
 
+def amplitude_ratio(est, ref) -> float:
+    """Least-squares gain ``g`` of ``ref ~ g est`` (< 1: the estimate overshoots the
+    reference's amplitude)."""
+    est, ref = np.asarray(est, float), np.asarray(ref, float)
+    return float(np.dot(est, ref) / np.dot(est, est))
+
+
 # ------------------------------------------------------------------ topic speed benchmarks
 def topic_benchmarks(quick: bool = False, skip=()) -> list[dict]:
     """Run every ``vehicle_observers.benchmarks.<topic>.run(quick)`` and tag rows by topic."""
