@@ -51,3 +51,17 @@ def test_linear_tire_and_relaxation():
     # tau dF/dt + F = F_S with tau = r / vx: first-order lag towards F_S
     assert relaxation_rhs(0.0, 1000.0, 20.0, 0.5) == pytest.approx(1000.0 * 20.0 / 0.5)
     assert relaxation_rhs(1000.0, 1000.0, 20.0, 0.5) == 0.0
+
+
+def test_compiled_kernels_equal_the_tire_methods():
+    """The numba kernels used inside the simulation/observer loops equal the numpy methods."""
+    from vehicle_observers.lateral import magic_formula_kernel, secant_kernel
+    from vehicle_observers.tires import Pacejka
+
+    tire = Pacejka(B=8.0, C=1.3, D=4000.0, E=-0.5)
+    for a in (-0.2, -1e-6, 0.0, 3e-5, 0.05, 0.3):
+        assert magic_formula_kernel(a, tire.B, tire.C, tire.D, tire.E) == pytest.approx(
+            float(tire.force(a)), rel=1e-13, abs=1e-9)
+        assert secant_kernel(a, tire.B, tire.C, tire.D, tire.E) == pytest.approx(
+            float(tire.secant_stiffness(a)), rel=1e-13)
+    assert secant_kernel(0.1, 5e4, 0.0, 0.0, 0.0) == 5e4  # C = 0 encodes a linear tyre

@@ -190,7 +190,10 @@ def yacine_ts(p: LateralParams, Mf: tuple[float, float], Mr: tuple[float, float]
 
 # ------------------------------------------------------------------ numba kernels ---------
 @njit(cache=True)
-def _mf(alpha, B, C, D, E):
+def magic_formula_kernel(alpha, B, C, D, E):
+    """Compiled Pacejka force ``D sin(C atan(B(1-E) alpha + E atan(B alpha)))`` [N] at slip
+    ``alpha`` [rad] (Yacine 2015 eq. (7)); ``C == 0`` encodes a linear tyre of slope ``B``
+    [N/rad]. Scalar in, scalar out; equals :meth:`.tires.Pacejka.force`."""
     if C == 0.0:  # linear tyre, slope B
         return B * alpha
     return D * np.sin(C * np.arctan(B * (1.0 - E) * alpha + E * np.arctan(B * alpha)))
@@ -211,7 +214,10 @@ def _sinc(x):
 
 
 @njit(cache=True)
-def _secant(alpha, B, C, D, E):
+def secant_kernel(alpha, B, C, D, E):
+    """Compiled secant stiffness ``F(alpha)/alpha`` [N/rad] of the same Pacejka curve, finite
+    at ``alpha = 0`` (series of atan(x)/x and sin(x)/x): the TS premise of Yacine 2015
+    (14)-(17). Equals :meth:`.tires.Pacejka.secant_stiffness`."""
     if C == 0.0:
         return B
     S1 = B * alpha
@@ -232,8 +238,8 @@ def _s1_rhs(X, delta, vx, P, exact, relax, out):
     else:
         a_f = delta - vy / vx - af * r / vx
         a_r = -vy / vx + ar * r / vx
-    FfS = _mf(a_f, P[7], P[8], P[9], P[10])
-    FrS = _mf(a_r, P[11], P[12], P[13], P[14])
+    FfS = magic_formula_kernel(a_f, P[7], P[8], P[9], P[10])
+    FrS = magic_formula_kernel(a_r, P[11], P[12], P[13], P[14])
     if relax:
         Ff, Fr = X[2], X[3]
         out[2] = vx / rf * (FfS - Ff)
@@ -325,8 +331,8 @@ def _ts_rhs(x, delta, vx, P, Av, Bv, zmin, zmax, h, z, out):
     af, ar = P[2], P[3]
     a_f = delta - x[0] / vx - af * x[1] / vx
     a_r = -x[0] / vx + ar * x[1] / vx
-    z[0] = _secant(a_r, P[11], P[12], P[13], P[14])
-    z[1] = _secant(a_f, P[7], P[8], P[9], P[10])
+    z[0] = secant_kernel(a_r, P[11], P[12], P[13], P[14])
+    z[1] = secant_kernel(a_f, P[7], P[8], P[9], P[10])
     z[2] = vx
     out_of_bounds = False
     for j in range(3):

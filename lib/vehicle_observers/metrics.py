@@ -5,18 +5,25 @@ from __future__ import annotations
 import numpy as np
 
 
-def rmse(est, ref, mask=None) -> float:
+def _errors(est, ref, mask, what):
     e = np.asarray(est, dtype=float) - np.asarray(ref, dtype=float)
     if mask is not None:
         e = e[mask]
+    if e.size == 0:
+        raise ValueError(f"{what}: the selection is empty (mask selects no sample of "
+                         f"{np.size(est)}); widen the window or check the mask")
+    return e
+
+
+def rmse(est, ref, mask=None) -> float:
+    """Root-mean-square of ``est - ref`` over ``mask`` (ValueError if it selects nothing)."""
+    e = _errors(est, ref, mask, "rmse")
     return float(np.sqrt(np.mean(e**2)))
 
 
 def max_abs(est, ref, mask=None) -> float:
-    e = np.abs(np.asarray(est, dtype=float) - np.asarray(ref, dtype=float))
-    if mask is not None:
-        e = e[mask]
-    return float(e.max())
+    """Largest ``|est - ref|`` over ``mask`` (ValueError if it selects nothing)."""
+    return float(np.abs(_errors(est, ref, mask, "max_abs")).max())
 
 
 def nrmse(est, ref, mask=None) -> float:

@@ -74,7 +74,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .lateral import LateralParams, _mf
+from .lateral import LateralParams, magic_formula_kernel
 from .logs import DriveLog
 
 # ----------------------------------------------------------------- defaults ----------------
@@ -254,8 +254,8 @@ def _rhs(X, dcmd, vx, rho, P, tau_s, out, exact=True):
     else:
         a_f = delta - vy / vx - af * r / vx                   # eq. (4)
         a_r = -vy / vx + ar * r / vx
-    FfS = _mf(a_f, P[7], P[8], P[9], P[10])                    # eq. (7)
-    FrS = _mf(a_r, P[11], P[12], P[13], P[14])
+    FfS = magic_formula_kernel(a_f, P[7], P[8], P[9], P[10])                    # eq. (7)
+    FrS = magic_formula_kernel(a_r, P[11], P[12], P[13], P[14])
     out[0] = (Ff + Fr) / m - vx * r                             # eq. (8)
     out[1] = (af * Ff - ar * Fr) / Iz
     out[2] = vx / rf * (FfS - Ff)

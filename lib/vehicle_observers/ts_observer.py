@@ -62,7 +62,7 @@ from numba import njit
 
 from .differentiators import levant_differentiator
 from .errors import CertificationError, InfeasibleDesign
-from .lateral import LateralParams, _secant, forces_from_transformed
+from .lateral import LateralParams, secant_kernel, forces_from_transformed
 from .lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
 from .logs import DriveLog
 from .ts import SectorTS, memberships
@@ -356,8 +356,8 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
         r = y[k]
         a_f = u[k] - vyp[k] / v - af * r / v                       # slip (4) with v_ye
         a_r = -vyp[k] / v + ar * r / v
-        z[0] = _secant(a_r, P[11], P[12], P[13], P[14])
-        z[1] = _secant(a_f, P[7], P[8], P[9], P[10])
+        z[0] = secant_kernel(a_r, P[11], P[12], P[13], P[14])
+        z[1] = secant_kernel(a_f, P[7], P[8], P[9], P[10])
         z[2] = v
         for j in range(3):
             if z[j] < zmin[j]:

@@ -36,10 +36,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python 3.10: the same parser is the 'tomli' package
-    import tomli as tomllib
+import tomllib
 
 from .kalman import KalmanTuning
 from .lateral import LateralParams
