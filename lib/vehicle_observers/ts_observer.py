@@ -62,7 +62,7 @@ from numba import njit
 
 from .differentiators import levant_differentiator
 from .errors import CertificationError, InfeasibleDesign
-from .lateral import LateralParams, secant_kernel, forces_from_transformed
+from .lateral import LateralParams, forces_from_transformed, secant_kernel
 from .lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
 from .logs import DriveLog
 from .ts import SectorTS, memberships
