@@ -1,0 +1,239 @@
+"""EKF baseline for the tyre forces of Rabhi et al. (AVCS 2004), Part A.
+
+The classical "force as random walk" extended Kalman filter of the vehicle-dynamics
+literature, built on the **same simplified planar model** the sliding-mode observer of
+:mod:`.smo` uses (eq. (9) with reconstructions R-A1, R-A3, R-A4) and the **same measured
+outputs** ``y = [v_x, v_y, r, omega_f, omega_r]``; only the force model differs: the SMO
+uses the relaxation model (8) with adaptive ``theta``, the EKF models each force as a random
+walk (no tyre model at all). Filtering is done by the generic
+:func:`.filterpy_baseline.run_ekf` (filterpy ``ExtendedKalmanFilter``, RK4 discretisation,
+zero-order-hold input); this module supplies the exact Jacobian of the RK4 map.
+
+Augmented state ``x`` (9,)::
+
+    [v_x (m/s), v_y (m/s), r (rad/s), omega_f (rad/s), omega_r (rad/s),
+     F_xf, F_xr, F_yf, F_yr (N)]
+
+Model (continuous time, input ``u = [delta (rad), T_f (N m), T_r (N m)]``)::
+
+    [v_x, v_y, r]'   = Omega(delta) F + [v_y r, -v_x r, 0]        (9), R-A3/R-A4
+    [omega_f, omega_r]' = [T_f / J_f, T_r / J_r] - H F             (3)
+    F'               = w,   E[w w'] = Q_F delta(t)                 (random walk)
+
+Measurement ``y = x[:5] + v``, ``E[v v'] = R``.
+
+Noise rule (stated, not tuned against the truth):
+
+* ``R = diag(sensor_std^2)`` (the sensor noise of the noisy case, also used on clean data,
+  where it is the sensor specification);
+* ``Q_F = diag(F_max^2 / t_rise)`` [N^2/s]: over the rise time ``t_rise`` the random walk
+  spreads by one peak force ``F_max = mu_max F_z`` (static axle load of the observer model,
+  ``mu_max = 1``), i.e. a force-rate bound ``F_max / t_rise``;
+* zero process noise on the velocities (the model is exact given the forces, the forces
+  carry all the uncertainty).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .filterpy_baseline import FilterRun, run_ekf, run_ukf
+from .metrics import rmse
+from .planar import G_ACC
+from .smo import ForceObserverModel
+
+FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
+N_X = 9
+
+
+def _omega_h(delta: float, q: ForceObserverModel):
+    """``Omega(delta)`` (3, 4) and ``H`` (2, 4) of (9) (R-A4), as :func:`.smo._omega_h`."""
+    c, s = np.cos(delta), np.sin(delta)
+    Om = np.array([[c / q.m, 1.0 / q.m, -s / q.m, 0.0],
+                   [s / q.m, 0.0, c / q.m, 1.0 / q.m],
+                   [q.l_f * s / q.J_z, 0.0, q.l_f * c / q.J_z, -q.l_r / q.J_z]])
+    H = np.array([[q.r_f / q.J_f, 0.0, 0.0, 0.0], [0.0, q.r_r / q.J_r, 0.0, 0.0]])
+    return Om, H
+
+
+def force_rw_model(model: ForceObserverModel):
+    """Augmented random-walk-force model of the SMO's planar model.
+
+    Returns ``(f, h, jac, hjac)`` for :func:`.filterpy_baseline.run_ekf`:
+    ``f(x, u) -> x'`` (9,), ``h(x, u) -> y`` (5,), ``jac(x, u, dt) -> (x_next, F)`` the RK4
+    step and its exact Jacobian (9, 9) (tangent-linear RK4), ``hjac(x, u) -> [I5 0]`` (5, 9).
+    """
+    J = np.array([model.J_f, model.J_r])
+    H5 = np.hstack([np.eye(5), np.zeros((5, 4))])
+
+    def f(x, u):
+        Om, H = _omega_h(u[0], model)
+        F = x[5:9]
+        dx = np.zeros(N_X)
+        dx[0:3] = Om @ F
+        dx[0] += x[1] * x[2]
+        dx[1] -= x[0] * x[2]
+        dx[3:5] = u[1:3] / J - H @ F
+        return dx
+
+    def A(x, Om, H):
+        a = np.zeros((N_X, N_X))
+        a[0:3, 5:9] = Om
+        a[0, 1], a[0, 2] = x[2], x[1]
+        a[1, 0], a[1, 2] = -x[2], -x[0]
+        a[3:5, 5:9] = -H
+        return a
+
+    def jac(x, u, dt):
+        Om, H = _omega_h(u[0], model)
+        eye = np.eye(N_X)
+        k1 = f(x, u)
+        d1 = A(x, Om, H)
+        x2 = x + 0.5 * dt * k1
+        k2 = f(x2, u)
+        d2 = A(x2, Om, H) @ (eye + 0.5 * dt * d1)
+        x3 = x + 0.5 * dt * k2
+        k3 = f(x3, u)
+        d3 = A(x3, Om, H) @ (eye + 0.5 * dt * d2)
+        x4 = x + dt * k3
+        k4 = f(x4, u)
+        d4 = A(x4, Om, H) @ (eye + dt * d3)
+        xn = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return xn, eye + dt / 6.0 * (d1 + 2 * d2 + 2 * d3 + d4)
+
+    def h(x, u):
+        return x[0:5].copy()
+
+    def hjac(x, u):
+        return H5
+
+    return f, h, jac, hjac
+
+
+def force_bounds(model: ForceObserverModel, mu_max: float = 1.0) -> np.ndarray:
+    """Physical force bounds ``mu_max F_z`` [N] per force (F_xf, F_xr, F_yf, F_yr), static
+    axle loads of the observer model, shape (4,)."""
+    L = model.l_f + model.l_r
+    fz_f = model.m * G_ACC * model.l_r / L
+    fz_r = model.m * G_ACC * model.l_f / L
+    return mu_max * np.array([fz_f, fz_r, fz_f, fz_r])
+
+
+def noise_rule(model: ForceObserverModel, sensor_std, t_rise: float = 0.5, mu_max: float = 1.0):
+    """``(Q, R)`` by the rule of the module docstring: ``Q`` (9, 9) continuous intensity
+    (zeros on the velocities, ``F_max^2 / t_rise`` on the forces), ``R = diag(sensor_std^2)``
+    (5, 5). ``t_rise`` [s] > 0, ``sensor_std`` (5,) > 0."""
+    s = np.asarray(sensor_std, dtype=float)
+    if s.shape != (5,) or np.any(s <= 0):
+        raise ValueError(f"sensor_std must be 5 positive stds [vx, vy, r, w_f, w_r], got {s}")
+    if t_rise <= 0:
+        raise ValueError(f"t_rise must be > 0, got {t_rise}")
+    Q = np.zeros((N_X, N_X))
+    Q[5:, 5:] = np.diag(force_bounds(model, mu_max) ** 2 / t_rise)
+    return Q, np.diag(s ** 2)
+
+
+@dataclass
+class ForceEKFResult:
+    """EKF force estimates at the filter's samples: ``t`` (M,), ``x`` (M, 9) posterior
+    means, ``F`` (M, 4) forces [N], ``F_std`` (M, 4) posterior stds [N], ``idx`` (M,) indices
+    of the samples in the measurement grid, ``run`` the :class:`FilterRun` (timing)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    F: np.ndarray
+    F_std: np.ndarray
+    idx: np.ndarray
+    run: FilterRun
+
+    @property
+    def us_per_step(self) -> float:
+        return self.run.us_per_step
+
+
+def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: int = 1,
+                  x0=None, P0_std=None, t_rise: float = 0.5, mu_max: float = 1.0,
+                  filter: str = "ekf") -> ForceEKFResult:
+    """Random-walk-force EKF (or UKF, ``filter='ukf'``) on the SMO's measurements.
+
+    t (N,) uniform [s], Y (N, 5) ``[v_x, v_y, r, w_f, w_r]``, U (N, 3) ``[delta, T_f, T_r]``
+    (as :func:`.smo.run_force_observer`); the filter uses every ``decimate``-th sample
+    (inputs held over ``decimate dt``). ``x0`` (9,) defaults to the first measurement and
+    zero forces; ``P0_std`` (9,) defaults to 1 m/s, 1 m/s, 0.1 rad/s, 5 rad/s, 5 rad/s and
+    ``F_max`` on the forces. ``Q, R`` from :func:`noise_rule`.
+    """
+    t = np.asarray(t, dtype=float)
+    Y = np.asarray(Y, dtype=float)
+    U = np.asarray(U, dtype=float)
+    if Y.ndim != 2 or Y.shape[1] != 5:
+        raise ValueError(f"Y must be (N, 5) [vx, vy, r, omega_f, omega_r], got {Y.shape}")
+    if U.shape != (len(Y), 3):
+        raise ValueError(f"U must be (N, 3) [delta, T_f, T_r] with N={len(Y)}, got {U.shape}")
+    if t.shape != (len(Y),) or len(t) < 2:
+        raise ValueError(f"t must be (N,) with N={len(Y)} >= 2, got {t.shape}")
+    dt = float(t[1] - t[0])
+    if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
+        raise ValueError("t must be uniformly increasing (constant step)")
+    if int(decimate) < 1:
+        raise ValueError(f"decimate must be >= 1, got {decimate}")
+    if filter not in ("ekf", "ukf"):
+        raise ValueError(f"filter must be 'ekf' or 'ukf', got {filter!r}")
+    idx = np.arange(0, len(t), int(decimate))
+    f, h, jac, hjac = force_rw_model(model)
+    Q, R = noise_rule(model, sensor_std, t_rise, mu_max)
+    if x0 is None:
+        x0 = np.concatenate([Y[0], np.zeros(4)])
+    if P0_std is None:
+        P0_std = np.concatenate([[1.0, 1.0, 0.1, 5.0, 5.0], force_bounds(model, mu_max)])
+    P0 = np.diag(np.asarray(P0_std, dtype=float) ** 2)
+    dtf = dt * int(decimate)
+    if filter == "ekf":
+        run = run_ekf(f, h, Y[idx], U[idx], dtf, x0, P0, Q, R, jac=jac, hjac=hjac,
+                      name="EKF random-walk forces (filterpy)")
+    else:
+        run = run_ukf(f, h, Y[idx], U[idx], dtf, x0, P0, Q, R,
+                      name="UKF random-walk forces (filterpy)")
+    return ForceEKFResult(t[idx], run.x, run.x[:, 5:9], np.sqrt(np.maximum(run.P_diag[:, 5:9], 0)),
+                          idx, run)
+
+
+def force_errors(t, F_est, F_true, peak, t_skip: float = 1.0) -> dict:
+    """Force metrics as in the SMO runs (``papers.rabhi2004.part_a_run``): for each force,
+    ``rmse_<nm>`` [N] and ``rmse_pct_<nm>`` [% of ``peak``] over ``t >= t_skip``.
+    t (M,), F_est, F_true (M, 4), peak (4,) [N] (peak of the full truth run)."""
+    t = np.asarray(t, dtype=float)
+    m = t >= t_skip
+    if not m.any():
+        raise ValueError(f"no sample after t_skip = {t_skip} s")
+    out = {}
+    for i, nm in enumerate(FORCE_NAMES):
+        e = rmse(np.asarray(F_est)[m, i], np.asarray(F_true)[m, i])
+        out[f"rmse_{nm}"] = e
+        out[f"rmse_pct_{nm}"] = 100 * e / float(peak[i])
+    return out
+
+
+def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int = 0,
+                   decimate: int = 1, t_skip: float = 1.0, x2_err0=(1.0, 0.5, 0.1),
+                   x3_err0=(5.0, 5.0), filter: str = "ekf", **kw) -> dict:
+    """EKF counterpart of ``papers.rabhi2004.part_a_run``: same truth ``Xs`` (N, 12), same
+    measurements (:func:`.smo.measurements_from_truth` with ``noise``, ``seed``), same
+    observer-model ``errors``, same initial velocity/wheel-speed errors, zero initial forces,
+    same metrics after ``t_skip``. ``p`` the truth :class:`.planar.PlanarParams`,
+    ``sensor_std`` (5,) for ``R``. Returns a dict with ``res`` (:class:`ForceEKFResult`),
+    ``rmse_*``, ``rmse_pct_*``, ``us_per_step``."""
+    from .smo import measurements_from_truth
+
+    model = ForceObserverModel.from_params(p, **(errors or {}))
+    Y = measurements_from_truth(Xs, noise, seed)
+    x0 = np.concatenate([Xs[0, 3:6] + np.asarray(x2_err0), Xs[0, 6:8] + np.asarray(x3_err0),
+                         np.zeros(4)])
+    res = run_force_ekf(man.t, Y, man.U, model, sensor_std, decimate=decimate, x0=x0,
+                        filter=filter, **kw)
+    F = Xs[:, 8:12]
+    peak = np.max(np.abs(F), axis=0)
+    out = {"res": res, "us_per_step": res.us_per_step}
+    out.update(force_errors(res.t, res.F, F[res.idx], peak, t_skip))
+    return out
