@@ -51,6 +51,33 @@ def test_estimation_metrics(m):
         assert m[f"rmse_f_{k}"] < 1e-3
 
 
+def test_ekf_baseline(m):
+    # v_y: the UIO returns the measurement (RMSE = sigma_vy), the EKF filters it with the model
+    # (quick run: 0.0096 m/s); a filter that did not use the model would sit at sigma_vy
+    assert m["rmse_vy_ekf"] < 0.7 * P.sigma_vy
+    # fault: same bound as the UIOs (10 % of the 0.01 rad offset; quick run 7.7e-4 rad)
+    assert m["rmse_f_ekf"] < 1e-3
+    # the random-walk fault model (rate-bound intensity) is slower at the step than both UIOs
+    # (quick run 0.072 s vs 0.020 / 0.025 s) but settles within 0.2 s
+    assert max(m["fault_delay_a"], m["fault_delay_b"]) < m["fault_delay_ekf"] < 0.2
+    # robustness: before the fault, the EKF's spurious fault comes from F(t) (with F = 0 it is
+    # ~ 200x smaller), the UIO's fault error does not depend on F(t) at all ((23a) decoupling)
+    assert m["rmse_f_ekf_before_noisefree"] > 10 * m["rmse_f_ekf_before_nounc"]
+    assert m["rmse_f_b_before_noisefree"] == pytest.approx(m["rmse_f_b_before_nounc"], rel=0.05)
+    # after settling the EKF's error is lag behind the sine fault, not uncertainty: the same
+    # with and without F(t) (quick run 3.2e-4 vs 3.4e-4 rad), and larger than the UIO's
+    assert m["rmse_f_ekf_settled_nounc"] == pytest.approx(m["rmse_f_ekf_settled_noisefree"],
+                                                          rel=0.25)
+    assert m["rmse_f_ekf_settled_noisefree"] > m["rmse_f_b_settled_noisefree"]
+    # measured premises: linear time-varying model, UKF = EKF = exact KF up to rounding
+    assert max(m["ukf_ekf_max_diff"]) < 1e-8
+    assert m["ukf_spd_repairs"] == 0
+    # filterpy's Python loop vs the numba UIO loop (measured ~200x; 20x leaves room for load)
+    assert m["cost_ratio_ekf_over_uio"] > 20
+    claim = [c for c in m["_doc"]["claims"] if c["figure"] == "fault_uio_vs_ekf"]
+    assert len(claim) == 1 and claim[0]["verdict"] == "reproduced"
+
+
 def test_assumption2_holds_on_run(m):
     assert m["max_abs_hdot"] < m["phi_design"]
     assert m["max_slip_deg"] < np.degrees(P.alpha_fit_max)   # inside the identified range
@@ -58,5 +85,6 @@ def test_assumption2_holds_on_run(m):
 
 def test_figures_written(m):
     for name in ("fig3_steering", "fig4_vy", "fig5_yaw_rate", "fig6_fault",
-                 "fig7_membership_derivatives", "feasibility_map", "fuzzy_forces_fit"):
+                 "fig7_membership_derivatives", "feasibility_map", "fuzzy_forces_fit",
+                 "fault_uio_vs_ekf"):
         assert (m["_dir"] / f"{name}.png").exists()

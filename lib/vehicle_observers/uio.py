@@ -879,6 +879,16 @@ def evaluate(gains: UIOGains, sc: dict, X0_hat=None, h=None) -> dict:
     """
     hh = sc["h"] if h is None else h
     Xh = run_observer(gains, sc["delta"], sc["y"], hh, sc["dt"], X0_hat)
+    return estimate_metrics(Xh, sc)
+
+
+def estimate_metrics(Xh, sc: dict) -> dict:
+    """Metrics of :func:`evaluate` for any estimate ``Xh`` (N, 3) = ``[v_y, r, f]`` (SI) of a
+    scenario ``sc`` of :func:`make_scenario` (also used for the EKF/UKF baseline,
+    :mod:`.uio_baseline`)."""
+    Xh = np.asarray(Xh, dtype=float)
+    if Xh.shape != (len(sc["t"]), 3):
+        raise ValueError(f"Xh must be ({len(sc['t'])}, 3) = [v_y, r, f], got {Xh.shape}")
     t, tf = sc["t"], sc["t_fault"]
     after = t >= tf
     before = (t < tf) & (t >= 1.0)
