@@ -70,14 +70,55 @@ def test_region_sweep(m):
 
 def test_claims_and_files(m):
     items = {c["item"] for c in m["_doc"]["claims"]}
-    for it in ("Fig. 2", "Fig. 3", "Fig. 4", "Fig. 5 / (35)-(36)", "(33)-(34) xi2 bounds"):
+    for it in ("Fig. 2", "Fig. 3", "Fig. 4", "Fig. 5 / (35)-(36)", "(33)-(34) xi2 bounds",
+               "EKF/UKF baseline vs DMVT"):
         assert it in items
     for f in ("fig2_ts_exactness.png", "fig3_tracking.png", "fig4_no_region.png",
               "fig5_region.png", "fig_poles.png", "fig_region_sweep.png",
-              "fig_jacobian_bounds.png", "fig_errors.png"):
+              "fig_jacobian_bounds.png", "fig_errors.png", "fig_ekf_ukf_errors.png"):
         assert (m["_dir"] / f).exists(), f
 
 
 def test_sweep_has_no_certification_failures(m):
     # every infeasible cell is declared infeasible by the solver, none is a rejected solution
     assert m["sweep_certification_failures"] == 0
+
+
+def test_filterpy_baseline_on_the_same_data(m):
+    """EKF/UKF (R = sensor variance, Q from the ZOH residual) vs the DMVT observers."""
+    ests = ("noreg", "reg", "ekf", "ukf")
+    for sc in ("clean", "noisy"):
+        for est in ests:
+            for w in ("rmse", "rmse_late"):
+                v = np.array(m[f"cmp_{sc}_{w}_{est}"], dtype=float)
+                assert v.shape == (4,) and np.all(np.isfinite(v)) and np.all(v > 0)
+    # noise-free data: over the window (transient-dominated) the EKF is below both designs
+    # on every state; after the transient its error on x1..x3 comes only from the 1 ms ZOH
+    # model residual (~1e-5), below the O(dt) ZOH bias the DMVT gains leave (~1e-4..1e-3).
+    # Not x4: there both suffer from the held input (in the full run the region design is
+    # slightly better on late x4)
+    ekf = np.array(m["cmp_clean_rmse_ekf"])
+    assert np.all(ekf < np.minimum(m["cmp_clean_rmse_noreg"], m["cmp_clean_rmse_reg"]))
+    ekf = np.array(m["cmp_clean_rmse_late_ekf"])[:3]
+    assert np.all(ekf < np.minimum(m["cmp_clean_rmse_late_noreg"][:3],
+                                   m["cmp_clean_rmse_late_reg"][:3]))
+    # with P0 >> R the first update nearly resets the measured states: the EKF settles (2 %)
+    # within 0.2 s on every state, the DMVT designs (|lambda| <= 10 with the region) do not
+    assert np.all(np.array(m["cmp_clean_settling_ekf"]) < 0.2)
+    assert np.all(np.array(m["cmp_clean_settling_reg"]) > 0.2)
+    # noisy run: filtering averages the sigma = 0.01 rad sensor noise on the measured states
+    late = np.array(m["cmp_noisy_rmse_late_ekf"])
+    assert late[0] < 0.01 / 3 and late[2] < 0.01 / 3
+    # the unconstrained DMVT design (poles up to |lambda| ~ 47) passes more noise to the
+    # unmeasured roll rate than the disk-limited one (|lambda| < 10); "late" starts at 1 s
+    # (quick) / 2 s (full), after the region design's x4 settling (~0.9 s)
+    assert m["cmp_noisy_rmse_late_noreg"][3] > m["cmp_noisy_rmse_late_reg"][3]
+    # UKF and EKF agree closely on this smooth, finely sampled problem (late errors ~1e-3);
+    # the SPD repair of the UKF never triggers
+    assert m["ekf_ukf_max_abs_diff"] < 1e-3
+    assert m["ukf_spd_repairs"] == 0
+    # cost: pure-Python filterpy EKF (>= 4 Python rhs calls + filterpy matrix algebra per
+    # step) vs the compiled DMVT step: more than 10x
+    assert m["cost_ratio_ekf_dmvt"] > 10
+    for sc in ("clean", "noisy"):
+        assert m[f"cmp_{sc}_us_per_step_ukf"] > m[f"cmp_{sc}_us_per_step_noreg"]
