@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from .dmvt import observer_rhs
 from .filterpy_baseline import rk4_step, run_ekf, run_ukf
 
 Array = np.ndarray
@@ -60,43 +61,6 @@ def discretisation_q(f, X, U, dt: float, floor: float = 1e-12) -> Array:
 
 
 @njit(cache=True)
-def _obs_rhs(xh, u, y, P, Av, Bv, zmin, zmax, L, C, out):
-    p, c, v, g = P[0], P[1], P[2], P[3]
-    x2h, x3h = xh[1], xh[2]
-    z = np.empty(3)
-    z[0] = g / p * (np.sin(x3h) / x3h if abs(x3h) > 1e-8 else 1.0)
-    z[1] = (1 + p * x2h * np.sin(x3h)) * np.cos(x3h) * v * v / p
-    z[2] = c / p * np.cos(x3h) * v
-    nr, nz, ny = Av.shape[0], zmin.shape[0], C.shape[0]
-    innov = np.empty(ny)
-    for k in range(ny):
-        acc = y[k]
-        for i in range(4):
-            acc -= C[k, i] * xh[i]
-        innov[k] = acc
-    for i in range(4):
-        out[i] = 0.0
-    for vtx in range(nr):
-        w = 1.0
-        wc = 1.0
-        for j in range(nz):
-            bit = (vtx >> (nz - 1 - j)) & 1
-            w0 = (z[j] - zmin[j]) / (zmax[j] - zmin[j])
-            w0c = min(max(w0, 0.0), 1.0)
-            w *= w0 if bit == 0 else 1.0 - w0
-            wc *= w0c if bit == 0 else 1.0 - w0c
-        jl = vtx if L.shape[0] == nr else 0
-        for i in range(4):
-            acc = Bv[vtx, i, 0] * u
-            for j in range(4):
-                acc += Av[vtx, i, j] * xh[j]
-            gain = 0.0
-            for k in range(ny):
-                gain += L[jl, i, k] * innov[k]
-            out[i] += w * acc + wc * gain
-
-
-@njit(cache=True)
 def _obs_run(xh0, Y, U, dt, P, Av, Bv, zmin, zmax, L, C):
     N = Y.shape[0]
     Xh = np.empty((N, 4))
@@ -106,16 +70,16 @@ def _obs_run(xh0, Y, U, dt, P, Av, Bv, zmin, zmax, L, C):
         Xh[k] = s
         if k == N - 1:
             break
-        _obs_rhs(s, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k1)
+        observer_rhs(s, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k1)
         for i in range(4):
             tmp[i] = s[i] + 0.5 * dt * k1[i]
-        _obs_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k2)
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k2)
         for i in range(4):
             tmp[i] = s[i] + 0.5 * dt * k2[i]
-        _obs_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k3)
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k3)
         for i in range(4):
             tmp[i] = s[i] + dt * k3[i]
-        _obs_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k4)
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k4)
         for i in range(4):
             s[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return Xh

@@ -402,32 +402,28 @@ def region_sweep(vertices, C, a_values, R_values, r: int = 1, **kw) -> dict:
 
 
 @njit(cache=True)
-def _bike_rhs(s, t, P, Av, Bv, zmin, zmax, L, C, out):
-    """Plant (25)+(27) (states 0..3) and observer (6) (states 4..7)."""
-    p, c, v, g, k1, k2 = P[0], P[1], P[2], P[3], P[4], P[5]
-    u = -k1 * (s[2] - np.sin(t)) - k2 * (s[3] - np.cos(t))
-    out[0] = s[1] * v
-    out[1] = u
-    out[2] = s[3]
-    out[3] = (g * np.sin(s[2]) + (1 + p * s[1] * np.sin(s[2])) * np.cos(s[2]) * s[1] * v * v
-              + c * np.cos(s[2]) * v * u) / p
-    # observer premises from the estimate (unmeasurable premise variables)
-    x2h, x3h = s[5], s[6]
+def observer_rhs(xh, u, y, P, Av, Bv, zmin, zmax, L, C, out):
+    """Observer (6) of Ichalal 2011 (compiled): ``out = sum_i mu_i(z(xh)) (A_i xh + B_i u)
+    + sum_j mu_j L_j (y - C xh)`` with the premises (31)-(33) computed from the *estimate*
+    ``xh`` (4,) (unmeasurable premise variables). The model part uses the exact (possibly
+    extrapolated) weights, so it equals ``f(xh, u)`` even outside the sector; the gain part
+    the clipped, convex weights. ``P`` = (p, c, v, g, ...), ``Av`` (r, 4, 4), ``Bv`` (r, 4, 1),
+    ``zmin, zmax`` (3,), ``L`` (r or 1, 4, ny), ``C`` (ny, 4), ``y`` (ny,), ``out`` (4,)."""
+    p, c, v, g = P[0], P[1], P[2], P[3]
+    x2h, x3h = xh[1], xh[2]
     z = np.empty(3)
     z[0] = g / p * (np.sin(x3h) / x3h if abs(x3h) > 1e-8 else 1.0)
     z[1] = (1 + p * x2h * np.sin(x3h)) * np.cos(x3h) * v * v / p
     z[2] = c / p * np.cos(x3h) * v
-    nr = Av.shape[0]
-    nz = zmin.shape[0]
-    ny = C.shape[0]
+    nr, nz, ny = Av.shape[0], zmin.shape[0], C.shape[0]
     innov = np.empty(ny)
     for k in range(ny):
-        acc = 0.0
+        acc = y[k]
         for i in range(4):
-            acc += C[k, i] * (s[i] - s[4 + i])
+            acc -= C[k, i] * xh[i]
         innov[k] = acc
     for i in range(4):
-        out[4 + i] = 0.0
+        out[i] = 0.0
     for vtx in range(nr):
         w = 1.0   # exact (possibly extrapolated) weight: model part equals f(xhat, u)
         wc = 1.0  # clipped weight: convex blend of the gains
@@ -441,11 +437,32 @@ def _bike_rhs(s, t, P, Av, Bv, zmin, zmax, L, C, out):
         for i in range(4):
             acc = Bv[vtx, i, 0] * u
             for j in range(4):
-                acc += Av[vtx, i, j] * s[4 + j]
+                acc += Av[vtx, i, j] * xh[j]
             gain = 0.0
             for k in range(ny):
                 gain += L[jl, i, k] * innov[k]
-            out[4 + i] += w * acc + wc * gain
+            out[i] += w * acc + wc * gain
+
+
+@njit(cache=True)
+def _bike_rhs(s, t, P, Av, Bv, zmin, zmax, L, C, out):
+    """Plant (25)+(27) (states 0..3) and observer (6) (states 4..7, :func:`observer_rhs`
+    with ``y = C x``)."""
+    p, c, v, g, k1, k2 = P[0], P[1], P[2], P[3], P[4], P[5]
+    u = -k1 * (s[2] - np.sin(t)) - k2 * (s[3] - np.cos(t))
+    out[0] = s[1] * v
+    out[1] = u
+    out[2] = s[3]
+    out[3] = (g * np.sin(s[2]) + (1 + p * s[1] * np.sin(s[2])) * np.cos(s[2]) * s[1] * v * v
+              + c * np.cos(s[2]) * v * u) / p
+    ny = C.shape[0]
+    y = np.empty(ny)
+    for k in range(ny):
+        acc = 0.0
+        for i in range(4):
+            acc += C[k, i] * s[i]
+        y[k] = acc
+    observer_rhs(s[4:], u, y, P, Av, Bv, zmin, zmax, L, C, out[4:])
     return u
 
 
