@@ -9,13 +9,12 @@ no state-dependent cost). ``run(quick=False) -> list[dict]`` rows ``{"component"
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from .. import kalman as K
 from ..logs import DriveLog, despike, load_revs
 from ..papers import revs250lm as R
+from . import best_time
 
 TUNING = K.KalmanTuning(q_vy=0.27, q_r=2e-3, q_b=0.4, R_r=1.6e-5, R_ay=1.3,
                         source="fixed for the speed benchmark")
@@ -31,15 +30,6 @@ def log_1khz(duration: float = 350.0) -> DriveLog:
                     vy=f(src.vy), source=f"revs_250lm_2014 at 1 kHz ({duration:g} s)")
 
 
-def _best(fn, repeat):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def run(quick: bool = False) -> list[dict]:
     dur = 35.0 if quick else 350.0
     log = log_1khz(dur)
@@ -51,14 +41,14 @@ def run(quick: bool = False) -> list[dict]:
     for name, fn in (("EKF (numba)", lambda: K.ekf(log, p, TUNING)),
                      ("RTS smoother (numba, EKF pass + backward pass)",
                       lambda: K.rts(log, p, TUNING))):
-        sec, _ = _best(fn, 3)
+        sec, _ = best_time(fn, 3)
         rows.append({"component": name, "steps": n, "seconds": sec, "us_per_step": sec / n * 1e6,
                      "whole_run_s": sec})
     m = 2000 if quick else 20000
     seg = log.segment(log.t[0], log.t[m - 1])
     for name, fn in (("EKF (filterpy)", lambda: K.ekf_filterpy(seg, p, TUNING)),
                      ("UKF (filterpy, SPD repair)", lambda: K.ukf_filterpy(seg, p, TUNING))):
-        sec, _ = _best(fn, 1)
+        sec, _ = best_time(fn, 1)
         rows.append({"component": name, "steps": m, "seconds": sec, "us_per_step": sec / m * 1e6,
                      "whole_run_s": sec / m * n})
     return rows

@@ -7,22 +7,15 @@ each kernel is excluded (numba compilation/caching).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from .. import fullcar, planar, road, smo
 from ..papers import rabhi2004 as R
+from . import best_time
 
 
 def _time(fn, repeat=3):
-    fn()  # warm-up (compilation / cache load)
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeat, warmup=True)[0]
 
 
 def run(quick: bool = False) -> list[dict]:

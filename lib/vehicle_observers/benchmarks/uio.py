@@ -6,21 +6,15 @@ The designs are solved once (not timed); the numba kernels are compiled by a war
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from .. import uio
 from ..papers import elyoussfi2020 as P
+from . import best_time
 
 
-def _best_of(fn, repeat):
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+def _best_of(fn, repeat=3):
+    return best_time(fn, repeat)[0]
 
 
 def run(quick: bool = False) -> list[dict]:

@@ -19,15 +19,11 @@ from .. import scenarios
 from .. import ts_observer as to
 from ..differentiators import levant_differentiator
 from ..logs import DriveLog
+from . import best_time
 
 
 def _best(fn, repeat=3):
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeat)[0]
 
 
 def _tile(log: DriveLog, T: float) -> DriveLog:
