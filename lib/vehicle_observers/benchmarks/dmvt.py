@@ -12,9 +12,12 @@ import time
 import numpy as np
 
 from .. import bicycle as b
+from .. import bicycle_baseline as bb
 from .. import dmvt
+from ..filterpy_baseline import run_ekf
 from ..lmi import disk, halfplane
 from ..papers import ichalal2011 as ic
+from . import best_time
 
 
 def _setup(T: float):
@@ -53,6 +56,21 @@ def run(quick: bool = False) -> list[dict]:
         best = min(best, time.perf_counter() - t0)
     rows.append({"component": "dmvt bicycle + observer (6) RK4 co-simulation, 8 rules",
                  "steps": len(tt), "seconds": best, "us_per_step": best / len(tt) * 1e6})
+    # the same observer on sampled data, and the filterpy EKF baseline on the same data
+    m = 1000 if quick else 5000
+    X, U = b.simulate(bp, tt[:m])
+    Y = X @ ic.C.T
+    x0 = np.array([0.1, -0.1, 0.1, 0.5])
+    _, sec = bb.run_dmvt_on_data(bp, ts, L, ic.C, Y, U, 1e-3, x0)
+    rows.append({"component": "dmvt observer (6) on sampled data (bicycle_baseline)",
+                 "steps": m, "seconds": sec, "us_per_step": sec / m * 1e6})
+    f, C = bb.bicycle_f(bp), ic.C
+    sec, _ = best_time(lambda: run_ekf(f, lambda x, u: C @ x, Y, U[:, None], 1e-3, x0,
+                                       np.eye(4), 1e-6 * np.eye(4), 1e-4 * np.eye(2),
+                                       jac=bb.rk4_step_and_jacobian(bp),
+                                       hjac=lambda x, u: C), 1)
+    rows.append({"component": "filterpy EKF on the same data (exact RK4 Jacobian)",
+                 "steps": m, "seconds": sec, "us_per_step": sec / m * 1e6})
     return rows
 
 

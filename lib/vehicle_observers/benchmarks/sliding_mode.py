@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import fullcar, planar, road, smo
+from .. import fullcar, planar, planar_baseline, road, smo
 from ..papers import rabhi2004 as R
 from . import best_time
 
@@ -37,6 +37,11 @@ def run(quick: bool = False) -> list[dict]:
         sec = _time(lambda g=g: smo.run_force_observer(man.t, Y, man.U, model, g))
         rows.append({"component": f"force SMO (10), {mode}", "steps": n, "seconds": sec,
                      "us_per_step": 1e6 * sec / n, "dt": dt})
+    m = min(n, 2000 if quick else 10000)  # pure Python: a window of the same data
+    sec, _ = best_time(lambda: planar_baseline.run_force_ekf(man.t[:m], Y[:m], man.U[:m], model,
+                                                             R.sensor_noise), 1)
+    rows.append({"component": "filterpy EKF on the same data (forces as random walks)",
+                 "steps": m, "seconds": sec, "us_per_step": 1e6 * sec / m, "dt": dt})
     # Part B
     dt = R.dt_road
     t = np.arange(int(round(T / dt))) * dt

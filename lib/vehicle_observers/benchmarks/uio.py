@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import uio
+from .. import uio, uio_baseline
 from ..papers import elyoussfi2020 as P
 from . import best_time
 
@@ -43,6 +43,10 @@ def run(quick: bool = False) -> list[dict]:
         sec = _best_of(lambda g=g: uio.run_observer(g, delta, y, h, P.dt), 5)
         rows.append({"component": f"{name} observer RK4", "steps": n, "seconds": sec,
                      "us_per_step": sec / n * 1e6})
+    m = 2000 if quick else 10000  # pure Python: a window, cost per step is state-independent
+    sec, _ = best_time(lambda: uio_baseline.run_filter(model, delta[:m], y[:m], P.dt, h=h[:m]), 1)
+    rows.append({"component": "filterpy EKF on the same data (fault random walk)", "steps": m,
+                 "seconds": sec, "us_per_step": sec / m * 1e6})
     return rows
 
 
