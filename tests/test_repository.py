@@ -33,6 +33,25 @@ def test_notebook_stored_without_outputs_and_has_parameters(nb):
         assert re.search(rf"^{name}\s*=", params[0].source, re.M), f"{nb.name}: no {name!r}"
 
 
+#: longest code cell a notebook may have: cells call the library (experiments, figures and
+#: metric tables live in ``vehicle_observers/*_study.py``); a claim with its prose is the longest
+MAX_CODE_CELL_LINES = 20
+
+
+@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_code_cells_are_thin(nb):
+    doc = nbformat.read(str(nb), as_version=4)
+    for i, c in enumerate(doc.cells):
+        if c.cell_type != "code":
+            continue
+        n = len(c.source.splitlines())
+        assert n <= MAX_CODE_CELL_LINES, (
+            f"{nb.name} cell {i}: {n} lines of code (at most {MAX_CODE_CELL_LINES}); move the "
+            "logic into the library with a unit test")
+        nested = re.search(r"^\s*for .*:\s*\n(\s+.*\n)*?\s+for .*:", c.source, re.M)
+        assert nested is None, f"{nb.name} cell {i}: nested loops belong in the library"
+
+
 @pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
 def test_every_notebook_is_executed_by_a_test(nb):
     num = nb.stem[:2]

@@ -137,6 +137,25 @@ def revs_fig1(base: LateralParams, linear: LateralParams, log: DriveLog,
             "delta": delta}
 
 
+#: metric-name key of each model of :func:`revs_fig1`
+FIT_KEYS = {"nonlinear, no relaxation": "nl", "TS, relaxation": "ts", "linear bicycle": "lin"}
+_FIT_UNITS = {"yaw_rmse": "rad/s", "vy_rmse": "m/s"}
+
+
+def revs_fit_metrics(fits: dict) -> dict:
+    """Flatten the ``fits`` of :func:`revs_fig1` into ``{"revs_<model>_<fit>": (value, unit)}``
+    (model keys :data:`FIT_KEYS`; RMSE in rad/s or m/s, correlations and fit % unitless)."""
+    return {f"revs_{key}_{k}": (v, _FIT_UNITS.get(k, ""))
+            for name, key in FIT_KEYS.items() for k, v in fits[name].items()}
+
+
+def fit_table(fits: dict) -> str:
+    """One text line per model of :func:`revs_fig1`: yaw-rate and v_y fit."""
+    return "\n".join(f"{name:<26} yaw rate: RMSE {f['yaw_rmse']:.4f} rad/s, corr {f['yaw_corr']:.3f}, "
+                     f"fit {f['yaw_fit']:.1f} % | v_y: RMSE {f['vy_rmse']:.3f} m/s, corr {f['vy_corr']:.3f}"
+                     for name, f in fits.items())
+
+
 def bicycle_exactness(bp: bicycle.BicycleParams, duration: float = 10.0, dt: float = 1e-3,
                       margin: float = 0.01) -> dict:
     """Ichalal 2011 Fig. 2 analogue: closed-loop nonlinear bicycle vs its 8-rule TS form.
