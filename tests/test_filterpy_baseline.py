@@ -75,3 +75,17 @@ def test_shape_errors_are_clear():
         run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), np.eye(3), np.eye(1))
     with pytest.raises(ValueError, match="u has 9 rows"):
         run_ekf(_f, _h, z, u[:9], DT, np.zeros(2), np.eye(2), np.eye(2), np.eye(1))
+    with pytest.raises(ValueError, match="R must be positive semi-definite"):
+        run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), np.eye(2), -1e-12 * np.eye(1))
+    with pytest.raises(ValueError, match="Q must be symmetric"):
+        run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), 1e-10 * np.array([[1, 1], [0, 1]]),
+                np.eye(1))
+
+
+def test_one_channel_and_roundoff_tolerances():
+    """A 1-D z is one channel (not one sample); round-off below 1e-12 of the scale is accepted."""
+    z, u = _data(50)
+    Q = np.diag([1e-4, -1e-18])  # PSD up to round-off
+    a = run_ekf(_f, _h, z[:, 0], u, DT, np.zeros(2), np.eye(2), Q, np.array([[1e-4]]))
+    b = run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), Q, np.array([[1e-4]]))
+    assert a.x.shape == (50, 2) and np.array_equal(a.x, b.x)

@@ -72,7 +72,11 @@ def numerical_jacobian(fun: Callable, x: Array, rel: float = 1e-6) -> Array:
 
 
 def _check(z, u, x0, P0, Q, R):
-    z = np.atleast_2d(np.asarray(z, dtype=float))
+    z = np.asarray(z, dtype=float)
+    if z.ndim == 1:  # one measurement channel: (N,) -> (N, 1)
+        z = z[:, None]
+    if z.ndim != 2:
+        raise ValueError(f"z must be (N, p) measurements (or (N,) for one channel), got {z.shape}")
     u = np.asarray(u, dtype=float)
     if u.ndim == 1:
         u = u[:, None]
@@ -85,8 +89,14 @@ def _check(z, u, x0, P0, Q, R):
         M = np.asarray(M, dtype=float)
         if M.shape != (k, k):
             raise ValueError(f"{name} must be ({k}, {k}), got {M.shape}")
-        if not np.allclose(M, M.T) or np.linalg.eigvalsh(M).min() < 0:
-            raise ValueError(f"{name} must be symmetric positive semi-definite")
+        scale = max(float(np.abs(M).max()), np.finfo(float).tiny)
+        if np.abs(M - M.T).max() > 1e-12 * scale:
+            raise ValueError(f"{name} must be symmetric (max |{name} - {name}^T| = "
+                             f"{np.abs(M - M.T).max():.3g})")
+        lam = float(np.linalg.eigvalsh(M).min())
+        if lam < -1e-12 * scale:
+            raise ValueError(f"{name} must be positive semi-definite (smallest eigenvalue "
+                             f"{lam:.3g})")
     return z, u, x0, n, p
 
 
