@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from vehicle_observers import bicycle as b
+from vehicle_observers import bicycle_baseline as bb
 from vehicle_observers import dmvt_study as ds
 from vehicle_observers.metrics import overshoot
 from vehicle_observers.papers import ichalal2011 as ic
@@ -120,14 +121,37 @@ def test_filter_baseline_short_run(setup):
                                np.sqrt(np.mean((Xk - r.xhat) ** 2, axis=0)), rtol=1e-12)
     assert m["cmp_noisy_rmse_ekf"][2] == f"{r.name}, x1..x4"
     assert np.all(np.diag(base["Q"]) >= 1e-12)
-    wins = [getattr(cmp[sc]["ekf"], w) < np.minimum(getattr(cmp[sc]["noreg"], w),
-                                                    getattr(cmp[sc]["reg"], w))
-            for sc in cmp for w in ("rmse", "rmse_late")]
-    assert m["ekf_rmse_below_dmvt_share"][0] == np.mean(wins)
-    assert m["ekf_ukf_max_abs_diff"][0] < 1e-2 and m["ukf_spd_repairs"][0] == 0
+    assert 0 <= m["ekf_rmse_below_dmvt_share"][0] <= 1 and m["ukf_spd_repairs"][0] == 0
+    # EKF and UKF differ only by the second-order terms over the (small) posterior spread:
+    # far below their estimation error; measured <= 0.54 % of the EKF's late RMSE per state
+    late = tk >= 0.1
+    for sc in cmp:
+        d = np.abs(cmp[sc]["ekf"].xhat - cmp[sc]["ukf"].xhat)[late].max(axis=0)
+        assert np.all(d < 0.01 * cmp[sc]["ekf"].rmse_late), (sc, d)
+        assert np.all(d <= m["ekf_ukf_max_abs_diff"][0])
     # the noise (drawn from the seed) reaches the estimates: clean and noisy runs differ
     assert not np.array_equal(cmp["clean"]["ekf"].xhat, r.xhat)
     assert "cost ratio EKF/DMVT" in ds.baseline_summary(base)
+    with pytest.raises(ValueError, match=r"horizon T = 1.5 s is longer than the observer run"):
+        ds.filter_baseline(BP, mod["ts"], designs, C, obs, T=1.5, t_late=0.1)
+
+
+def test_win_share_known_answer():
+    """2 runs x 2 windows x 4 states = 16 cases; the EKF wins exactly the cases built so."""
+    def res(rmse, late):
+        return bb.EstimatorResult("e", None, np.array(rmse, float), np.array(late, float),
+                                  None, None, 0.0)
+    run = {"ekf": res([1, 1, 1, 1], [1, 1, 1, 1]),
+           "noreg": res([2, 0.5, 2, 1], [2, 2, 2, 2]),
+           "reg": res([2, 2, 0.5, 2], [2, 2, 2, 0.5])}
+    # rmse: wins x1 only (x2 lost to noreg, x3 lost to reg, x4 a tie is no win); late: wins
+    # x1..x3 (x4 lost to reg) -> 4 of 8
+    assert ds.win_share({"a": run}) == 0.5
+    # second run with the roles swapped: only the rmse of x2 (0.5 < 1) wins -> 5 of 16
+    assert ds.win_share({"a": run, "b": {"ekf": run["noreg"], "noreg": run["ekf"],
+                                         "reg": run["ekf"]}}) == 5 / 16
+    # reg against the EKF alone: rmse x3 and late x4 -> 2 of 8
+    assert ds.win_share({"a": run}, est="reg", rivals=("ekf",)) == 0.25
 
 
 def test_region_sweep_study_known_answer():
@@ -163,6 +187,9 @@ def _claim_inputs(**over):
          "lmi_min_rel_margin_noreg": 1e-4, "max_imag_noreg": 30.0, "min_damping_noreg": 0.3,
          "max_imag_reg": 7.0, "min_damping_reg": 0.49,
          "mc_median_overshoot_noreg": [0.5, 0.5, 0.2, 2.5], "Rmin": [4.69],
+         "mc_median_overshoot_reg": [0.3, 0.1, 0.4, 0.9], "max_modulus_noreg": 47.0,
+         "mc_median_settling_noreg": [1.1, 1.0, 0.36, 0.51],
+         "mc_median_settling_reg": [0.88, 0.82, 0.96, 0.93],
          "cmp_noisy_rmse_late_ekf": [0, 0, 0, 0.006], "cmp_noisy_rmse_late_reg": [0, 0, 0, 0.012],
          "ekf_rmse_below_dmvt_share": 0.94, "cost_ratio_ekf_dmvt": 60.0}
     m.update(over)
@@ -177,6 +204,22 @@ def test_paper_claims_verdict_rules_and_recording(tmp_path):
     assert c["EKF/UKF baseline vs DMVT"]["value"] == pytest.approx(0.5)
     assert "94 %" in c["EKF/UKF baseline vs DMVT"]["note"] and "60x" in c[
         "EKF/UKF baseline vs DMVT"]["note"]
+    fig5 = c["Fig. 5 / (35)-(36)"]["note"]
+    assert "median overshoot reduced for x1, x2, x4; median overshoot larger for x3" in fig5
+    assert "median 2 % settling larger for x3, x4" in fig5 and "up to 47 1/s" in fig5
+    assert "EKF better" in c["EKF/UKF baseline vs DMVT"]["note"]
+    assert "min 70.00 lower than printed 84.92" in c["(32)-(34) xi1 bounds"]["note"]
+    # the notes follow the numbers: a losing EKF, a region that helps everywhere
+    c = _claim_inputs(ekf_rmse_below_dmvt_share=0.25, cost_ratio_ekf_dmvt=0.5,
+                      cmp_noisy_rmse_late_ekf=[0, 0, 0, 0.02],
+                      mc_median_overshoot_reg=[0.1] * 4, mc_median_settling_reg=[0.1] * 4,
+                      xi1_bounds_derived=[90.0, 167.0])
+    note = c["EKF/UKF baseline vs DMVT"]["note"]
+    assert "DMVT better" in note and "25 %" in note and "0.5x" in note and "above 1" in note
+    fig5 = c["Fig. 5 / (35)-(36)"]["note"]
+    assert "larger" not in fig5 and "fast poles" not in fig5
+    assert "settling reduced for x1, x2, x3, x4" in fig5
+    assert "not lower than printed" in c["(32)-(34) xi1 bounds"]["note"]
     c = _claim_inputs(tracking_rmse_x3=0.03, ts_rhs_max_rel_diff=1e-3, min_damping_noreg=0.5,
                       max_imag_reg=40.0)
     assert c["Fig. 3"]["verdict"] == "partly" and c["Fig. 2"]["verdict"] == "differs"

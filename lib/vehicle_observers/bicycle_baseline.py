@@ -25,12 +25,12 @@ initial-error box of notebook 04's robustness study.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
+from .benchmarks import best_time
 from .dmvt import observer_rhs
 from .filterpy_baseline import rk4_step, run_ekf, run_ukf
 
@@ -97,16 +97,26 @@ def run_dmvt_on_data(bp, ts, L, C, Y, U, dt: float, xhat0, repeats: int = 3):
     U = np.ascontiguousarray(np.ravel(U), dtype=float)
     if len(U) != len(Y):
         raise ValueError(f"U has {len(U)} samples but Y has {len(Y)}")
-    args = (np.asarray(xhat0, dtype=float), Y, U, float(dt), bp.as_array(),
-            np.ascontiguousarray(ts.A), np.ascontiguousarray(ts.B), ts.zmin, ts.zmax,
-            np.ascontiguousarray(L, dtype=float), np.ascontiguousarray(C, dtype=float))
-    _obs_run(args[0], Y[:2], U[:2], *args[3:])  # compile / warm up, not timed
-    best = np.inf
-    for _ in range(max(repeats, 1)):
-        t0 = time.perf_counter()
-        Xh = _obs_run(*args)
-        best = min(best, time.perf_counter() - t0)
+    L = np.ascontiguousarray(L, dtype=float)
+    C = np.ascontiguousarray(C, dtype=float)
+    xhat0 = np.ascontiguousarray(xhat0, dtype=float)
+    ny, nr = Y.shape[1], ts.A.shape[0]
+    _check_shape("xhat0", xhat0, [(4,)])
+    _check_shape("C", C, [(ny, 4)], f"(ny, 4) with ny = {ny} columns of Y")
+    _check_shape("L", L, [(nr, 4, ny), (1, 4, ny)],
+                 f"(r, 4, ny) with r = {nr} rules or 1, ny = {ny}")
+    args = (xhat0, Y, U, float(dt), bp.as_array(), np.ascontiguousarray(ts.A),
+            np.ascontiguousarray(ts.B), ts.zmin, ts.zmax, L, C)
+    # first call untimed (numba compilation / cache load)
+    best, Xh = best_time(lambda: _obs_run(*args), max(repeats, 1), warmup=True)
     return Xh, best
+
+
+def _check_shape(name: str, a: Array, allowed: list, expected: str | None = None) -> None:
+    """ValueError naming ``name``, the expected and the actual shape unless ``a.shape`` is
+    one of ``allowed``."""
+    if a.shape not in allowed:
+        raise ValueError(f"{name} must have shape {expected or allowed[0]}, got {a.shape}")
 
 
 @dataclass
@@ -138,6 +148,9 @@ def _result(name, t, X, Xh, xhat0, seconds, t_late, info=None) -> EstimatorResul
     Xh0[0] = xhat0  # error metrics start from the prior error for every estimator
     E = X - Xh
     late = t >= t_late
+    if not late.any():
+        raise ValueError(f"t_late = {t_late:g} s is past the end of the run (last sample "
+                         f"t = {t[-1]:g} s): no sample for rmse_late")
     m = error_metrics(t, X, Xh0)
     return EstimatorResult(name, Xh, np.sqrt(np.mean(E**2, axis=0)),
                            np.sqrt(np.mean(E[late]**2, axis=0)), m["overshoot"], m["settling"],
