@@ -45,8 +45,24 @@ def test_noise_rule(model):
     d = max(abs(n[0, 0]) * 0.5 + abs(n[0, 1]) * 0.2 for n in Na)
     assert info["d_max"] == pytest.approx(d)
     assert Q[0, 0] == pytest.approx(d**2 * P.dt) and Q[1, 1] == 0.0   # M = [1, 0]^T
+    assert info["tau"] is None
     with pytest.raises(ValueError, match="dt"):
         ub.noise_rule(model, 0.0)
+    with pytest.raises(ValueError, match="tau"):
+        ub.noise_rule(model, P.dt, tau=0.0)
+
+
+def test_noise_rule_per_sample_vs_correlation_time(model):
+    # per-sample rule: per-sample increment std = s dt, so Q_k = Q dt = (s dt)^2 and the
+    # intensity scales with dt; correlation-time rule: Q = s^2 tau whatever dt is
+    for dt in (1e-3, 1e-2):
+        Q, _, info = ub.noise_rule(model, dt)
+        assert np.sqrt(Q[2, 2] * dt) == pytest.approx(P.scale_fdot * dt)
+        Qt, _, it = ub.noise_rule(model, dt, tau=0.5)
+        assert Qt[2, 2] == pytest.approx(P.scale_fdot**2 * 0.5) and it["tau"] == 0.5
+        assert Qt[0, 0] == pytest.approx(info["d_max"] ** 2 * 0.5) and Qt[1, 1] == 0.0
+    # a random walk of intensity s^2 tau spreads s tau (the drift at the bound) in tau
+    assert np.sqrt(Qt[2, 2] * 0.5) == pytest.approx(P.scale_fdot * 0.5)
     with pytest.raises(ValueError, match="fdot_max"):
         ub.noise_rule(model, P.dt, fdot_max=-1.0)
 
@@ -101,3 +117,18 @@ def test_bad_input(model, nominal_case):
         ub.run_filter(model, d, y, P.dt, h, P0=np.eye(2))
     with pytest.raises(ValueError, match=r"Xh must be"):
         uio.estimate_metrics(np.zeros((len(d), 2)), sc)
+
+
+def test_estimate_metrics_known_answer_and_empty_windows(nominal_case):
+    _, sc = nominal_case
+    ref = np.column_stack([sc["X"], sc["f"]])
+    off = np.array([0.01, -0.002, 3e-4])
+    m = uio.estimate_metrics(ref + off, sc)               # constant error -> RMSE = |offset|
+    for k, nm in enumerate(("vy", "r", "f")):
+        assert m[f"rmse_{nm}"] == pytest.approx(abs(off[k]), rel=1e-12)
+        assert m[f"rmse_{nm}_before"] == pytest.approx(abs(off[k]), rel=1e-12)
+    # fault at 1 s: the 'before' window [1 s, t_fault) is empty -> clear error, not NaN
+    with pytest.raises(ValueError, match="t_fault must exceed 1 s"):
+        uio.estimate_metrics(ref, {**sc, "t_fault": 1.0})
+    with pytest.raises(ValueError, match="metric windows"):   # fault after the run
+        uio.estimate_metrics(ref, {**sc, "t_fault": T_END + 1.0})

@@ -104,17 +104,45 @@ def test_ekf_baseline_metrics(case, ekf):
     m = _values(us.ekf_metrics(sim, ekf))
     qi = ekf["qinfo"]
     assert m["ekf_fdot_max"] == P.scale_fdot and m["ekf_d_max"] == qi["d_max"] > 0
-    # settled RMSE: independent recomputation on the mask t >= t_fault + 0.5 s
+    assert m["ekf_tau"] == us.TAU_NOISE
     sc0 = sim["sc0"]
+    # settled RMSE (properties): bounded by the largest settled error and by the RMSE over the
+    # whole post-fault window, which also holds the onset transient
     mask = sc0["t"] >= P.t_fault + 0.5
-    e = ekf["evk0"]["Xhat"][mask, 2] - sc0["f"][mask]
-    assert m["rmse_f_ekf_settled_noisefree"] == pytest.approx(np.sqrt(np.mean(e ** 2)), rel=1e-12)
+    for k, e in (("ekf", ekf["evk0"]), ("ekf_tau", ekf["evk0_tau"])):
+        assert 0 < m[f"rmse_f_{k}_settled_noisefree"] <= np.abs(e["err"][mask, 2]).max()
+        assert m[f"rmse_f_{k}_settled_noisefree"] < m[f"rmse_f_{k}_noisefree"]
+    # the dt-independent rule has a ~1000x larger fault intensity at 1 kHz (tau / dt): it
+    # follows the step faster than the per-sample rule, and passes more sensor noise
+    assert m["fault_delay_ekf_tau"] < m["fault_delay_ekf"]
+    # (noise share of its fault RMSE: noisy / noise-free, much larger than the per-sample one)
+    ratio = {k: m[f"rmse_f_{k}"] / m[f"rmse_f_{k}_noisefree"] for k in ("ekf", "ekf_tau")}
+    assert ratio["ekf_tau"] > 5 > 2 * ratio["ekf"]
     # the truth without uncertainty really is a different run, and (23a) makes the UIO's
     # fault error before the fault independent of F(t), unlike the EKF's
     assert ekf["sc0_nom"]["X"][:, 0] != pytest.approx(sc0["X"][:, 0])
     assert m["rmse_f_b_before_noisefree"] == pytest.approx(m["rmse_f_b_before_nounc"], rel=0.05)
     assert m["rmse_f_ekf_before_noisefree"] > 10 * m["rmse_f_ekf_before_nounc"]
     assert m["rmse_vy_ekf"] < 0.7 * P.sigma_vy
+
+
+def test_settled_fault_rmse_known_answer():
+    t = np.arange(0, 3.0 + 5e-4, 1e-3)
+    f = np.where(t >= 1.0, 0.01, 0.0)
+    Xh = np.zeros((len(t), 3))
+    Xh[:, 2] = f + np.where(t < 1.5, 0.05, 3e-4)          # onset error excluded, then 3e-4
+    ev, sc = {"Xhat": Xh}, {"t": t, "f": f, "t_fault": 1.0}
+    assert us.settled_fault_rmse(ev, sc) == pytest.approx(3e-4, rel=1e-12)
+    assert us.settled_fault_rmse(ev, sc, after=0.2) > 3e-4  # the onset error counts now
+    with pytest.raises(ValueError, match="no sample 2.5 s after the fault"):
+        us.settled_fault_rmse(ev, sc, after=2.5)
+
+
+def test_fault_table(case, ekf):
+    tab = us.fault_table(case["sim"], ekf)
+    assert list(tab) == ["UIO (a)", "UIO (b)", "EKF q = s^2 dt", "EKF q = s^2 tau, tau = 1 s"]
+    assert tab["EKF q = s^2 dt"]["delay"] == round(ekf["evk0"]["fault_delay"], 6)
+    assert tab["UIO (b)"]["rmse_f"] == round(case["sim"]["ev"]["b"]["rmse_f"], 6)
 
 
 def test_cost_comparison_quick_window(case, ekf):
@@ -159,7 +187,9 @@ def _claim_metrics(**over):
              rmse_f_ekf_before_noisefree=1e-3, rmse_f_ekf_before_nounc=1e-5,
              rmse_f_b_before_noisefree=1e-5, rmse_f_b_before_nounc=1e-5, fault_delay_ekf=0.07,
              rmse_f_ekf_settled_noisefree=3e-4, rmse_f_b_settled_noisefree=1e-4,
-             rmse_f_ekf=3e-4, rmse_vy_ekf=0.01, rmse_vy_b=0.02, cost_ratio_ekf_over_uio=200.0)
+             rmse_f_ekf=3e-4, rmse_vy_ekf=0.01, rmse_vy_b=0.02, cost_ratio_ekf_over_uio=200.0,
+             ekf_tau=1.0, fault_delay_ekf_tau=0.05, rmse_f_ekf_tau=1e-3, rmse_vy_ekf_tau=0.012,
+             rmse_f_ekf_tau_settled_noisefree=1e-5, rmse_f_ekf_tau_before_noisefree=2e-6)
     v.update(over)
     return {k: {"value": x, "unit": "", "note": ""} for k, x in v.items()}
 
@@ -175,6 +205,18 @@ def test_claims_verdicts_follow_the_metrics(tmp_path):
     bad = us.claims(_claim_metrics(rmse_r_b=3e-3, max_abs_hdot=11.0, map_containment=False,
                                    rmse_f_ekf_before_nounc=1e-3))
     assert [c[6] for c in bad][1:] == ["differs", "partly", "differs", "differs", "differs"]
+    # the notes name the winners the numbers give
+    notes = cl[5][7]
+    assert "fastest: UIO (a)" in notes and "lowest: EKF q = s^2 dt (the UIO" in notes
+    assert "Fault RMSE with noise (rad): " in notes and "-> lowest: UIO (b). Spurious" in notes
+    assert "noise-free, (b) is slower" in cl[2][7]
+    # an EKF (either rule) faster than UIO (b) makes the comparison only partly reproduced
+    fast = us.claims(_claim_metrics(fault_delay_ekf_tau=0.002))
+    assert fast[5][6] == "partly" and "fastest: EKF q = s^2 tau (tau = 1 s)" in fast[5][7]
+    assert us.claims(_claim_metrics(fault_delay_ekf=0.02))[5][6] == "partly"
+    tie = us.claims(_claim_metrics(fault_delay_a=0.025, fault_delay_ekf_tau=np.nan))
+    assert tie[5][6] == "reproduced" and "fastest: tie: UIO (b) = UIO (a)" in tie[5][7]
+    assert "noise-free, (b) is as fast" in tie[2][7]
     rep = Report("06_test", tmp_path)
     us.record(rep, {"x": (1.5, "m/s", "note")}, claims=cl)
     assert rep.metrics["x"] == {"value": 1.5, "unit": "m/s", "note": "note"}
@@ -195,7 +237,7 @@ def test_figures_axes(case, ekf):
     for k in range(3):
         assert _n_axes(us.fig_estimate(sim, k)) == 3
     fig = us.fig_fault_vs_ekf(sim, ekf)
-    assert len(fig.axes[0].get_lines()) == 4                # truth, (b), (a), EKF
+    assert len(fig.axes[0].get_lines()) == 5                # truth, (b), (a), 2 EKFs
     assert _n_axes(fig) == 3
     assert _n_axes(us.fig_membership_derivatives(sim["sc"])) == 1
     fm = {"alpha": np.array([0.0, 15.0]), "phi": np.array([0.0, 10.0]),

@@ -95,6 +95,7 @@ from scipy.optimize import least_squares
 
 from .errors import InfeasibleDesign
 from .lmi import LMIDesign, LMISolution, bmat
+from .metrics import rmse
 
 
 class AssumptionError(ValueError):
@@ -892,12 +893,17 @@ def estimate_metrics(Xh, sc: dict) -> dict:
     t, tf = sc["t"], sc["t_fault"]
     after = t >= tf
     before = (t < tf) & (t >= 1.0)
+    if not before.any() or not after.any():
+        raise ValueError(
+            f"metric windows need samples in [1 s, t_fault) and in [t_fault, t_end]: got "
+            f"t_fault = {tf} s on t in [{t[0]}, {t[-1]}] s (the 'before' window skips the "
+            f"first second of convergence, so t_fault must exceed 1 s)")
     ref = np.column_stack([sc["X"], sc["f"]])
     err = Xh - ref
     out = {"Xhat": Xh, "err": err}
     for k, nm in enumerate(("vy", "r", "f")):
-        out[f"rmse_{nm}"] = float(np.sqrt(np.mean(err[after, k] ** 2)))
-        out[f"rmse_{nm}_before"] = float(np.sqrt(np.mean(err[before, k] ** 2)))
+        out[f"rmse_{nm}"] = rmse(Xh[:, k], ref[:, k], after)
+        out[f"rmse_{nm}_before"] = rmse(Xh[:, k], ref[:, k], before)
     out["fault_delay"] = fault_delay(t, Xh[:, 2], sc["f"], tf)
     out["fault_delay_smoothed"] = fault_delay(t, Xh[:, 2], sc["f"], tf,
                                               window=max(1, int(round(0.02 / sc["dt"]))))

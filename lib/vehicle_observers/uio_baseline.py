@@ -18,17 +18,32 @@ the model is then linear time-varying and the EKF is the exact Kalman filter of 
 RK4-discretised model) or computed from the estimated front slip angle
 ``alpha_f = delta + f - (v_y + l_f r)/v_x`` (``h=None``: a genuinely nonlinear EKF).
 
-Noise rule (:func:`noise_rule`, no tuning against the truth): a bounded disturbance of size
-``s`` is modelled as white noise with per-sample standard deviation ``s`` -- the way the
-sensor noise ``D_w w`` enters (``w ~ N(0, I)`` per sample) -- i.e. continuous intensity
-``s^2 dt``:
+Noise rule (:func:`noise_rule`, no tuning against the truth). The filter discretises a
+continuous intensity ``q`` as ``Q_k = q dt`` (:mod:`.filterpy_baseline`). Each disturbance is
+described by a bound ``s`` on a *rate* (units per second): the fault rate ``fdot_max``
+[rad/s], the uncertainty's acceleration ``d_max`` [m/s^2]. Two rules turn ``s`` into ``q``:
 
-* ``R = D_w D_w^T`` (the sensor noise variances);
-* fault: ``s_f = fdot_max dt`` per sample, ``q_f = fdot_max^2 dt`` with ``fdot_max`` the
-  fault-rate bound the UIO's L2 index is normalised with (``model.scale_fdot``);
+* **per-sample rule** (``tau=None``, the notebook's main comparison): the random-walk
+  increment over one sample has standard deviation ``s dt`` (the bound times one sample),
+  i.e. ``Q_k = s^2 dt^2`` and continuous intensity ``q = s^2 dt``. This is **dt-dependent**:
+  the walk spreads ``s sqrt(dt T)`` in a time ``T``, at 1 kHz ``0.05 sqrt(1e-3) ~ 1.6e-3``
+  rad in 1 s for the fault against the ``0.05`` rad the rate bound allows, and it would
+  spread more at a lower sample rate. It assumes the disturbance changes direction every
+  sample, i.e. a filter that expects very slow drifts.
+* **correlation-time rule** (``tau`` [s] given, dt-independent): the disturbance keeps its
+  bound for about ``tau`` (a drift at rate ``s`` sustained over ``tau`` moves the state by
+  ``s tau``); white noise of intensity ``q`` moves it by ``sqrt(q tau)`` (std) in the same
+  time, equal for ``q = s^2 tau``. Per sample: ``Q_k = s^2 tau dt``. ``tau`` is a stated
+  modelling choice (the notebook uses 1 s, the time unit of the rate bounds), not fitted.
+
+Both rules use:
+
+* ``R = D_w D_w^T`` (the sensor noise variances, ``w ~ N(0, I)`` per sample);
+* fault: ``s = fdot_max``, the fault-rate bound the UIO's L2 index is normalised with
+  (``model.scale_fdot``): ``q_f = fdot_max^2 dt`` (per-sample) or ``fdot_max^2 tau``;
 * states: the uncertainty acts along ``M`` with size ``d_max = max_i rho |[A_i]_1,forces|
   scale_x[:2]`` (the ``1/m`` error applied to the force part at the model's typical state
-  magnitudes), ``Q_x = M M^T d_max^2 dt``.
+  magnitudes), ``Q_x = M M^T d_max^2 dt`` (per-sample) or ``M M^T d_max^2 tau``.
 
 Units: SI throughout (m/s, rad/s, rad); arrays (N, ...) over samples.
 """
@@ -68,24 +83,29 @@ def _blend(w, Ab, Bb):
     return A, B
 
 
-def noise_rule(model: UncertainLateralTS, dt: float, fdot_max: float | None = None):
+def noise_rule(model: UncertainLateralTS, dt: float, fdot_max: float | None = None,
+               tau: float | None = None):
     """``(Q (3, 3) continuous intensity, R (p, p), info)`` by the rule of the module docstring.
 
-    ``fdot_max`` [rad/s] defaults to ``model.scale_fdot``; ``info`` holds ``d_max`` [m/s^2]
-    and ``fdot_max``.
+    ``fdot_max`` [rad/s] defaults to ``model.scale_fdot``. ``tau=None``: per-sample rule
+    (``q = s^2 dt``, dt-dependent); ``tau`` [s] > 0: correlation-time rule (``q = s^2 tau``,
+    dt-independent). ``info`` holds ``d_max`` [m/s^2], ``fdot_max`` [rad/s] and ``tau``.
     """
     if not dt > 0:
         raise ValueError(f"dt must be > 0 s, got {dt}")
     fd = float(model.scale_fdot if fdot_max is None else fdot_max)
     if not fd > 0:
         raise ValueError(f"fdot_max must be > 0 rad/s, got {fd}")
+    if tau is not None and not tau > 0:
+        raise ValueError(f"tau must be > 0 s (or None for the per-sample rule), got {tau}")
     Na, _ = model.uncertainty_matrices()
     d_max = float(max(np.abs(n[0]) @ model.scale_x[:2] for n in Na))
+    scale = dt if tau is None else float(tau)   # q = s^2 dt  or  q = s^2 tau
     Q = np.zeros((3, 3))
-    Q[:2, :2] = model.M @ model.M.T * d_max**2 * dt
-    Q[2, 2] = fd**2 * dt
+    Q[:2, :2] = model.M @ model.M.T * d_max**2 * scale
+    Q[2, 2] = fd**2 * scale
     R = model.D_w @ model.D_w.T
-    return Q, R, {"d_max": d_max, "fdot_max": fd}
+    return Q, R, {"d_max": d_max, "fdot_max": fd, "tau": tau}
 
 
 def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str = "ekf",
@@ -95,7 +115,7 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
     delta (N,) [rad] measured steering, y (N, p) measurements ``C x + F_s f + noise`` (SI),
     dt [s]; h (N, r) memberships (measured premises, as fed to the UIO) or ``None``
     (memberships of the estimated front slip angle). ``Q``, ``R``: default
-    :func:`noise_rule`; ``X0`` (3,) default 0 (as the UIO's ``Xhat(0)``); ``P0`` default
+    :func:`noise_rule` (per-sample rule); ``X0`` (3,) default 0 (as the UIO's ``Xhat(0)``); ``P0`` default
     ``diag(scale_x^2)`` (the model's typical magnitudes). Returns a :class:`FilterRun` whose
     ``x`` is (N, 3) = ``[v_y, r, f]`` posterior estimates in SI units.
     """
