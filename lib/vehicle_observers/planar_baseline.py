@@ -22,6 +22,11 @@ Model (continuous time, input ``u = [delta (rad), T_f (N m), T_r (N m)]``)::
 
 Measurement ``y = x[:5] + v``, ``E[v v'] = R``.
 
+Decimation (``decimate = dec > 1``): the filter runs at ``1 / (dec dt)`` on the **block
+averages** of ``dec`` consecutive measurements (all the SMO's samples, none discarded), each
+time-stamped at its block centre, with ``R / dec`` (white sensor noise, averaged); the inputs
+are block-averaged over the same blocks and held (zero-order hold) over the filter step.
+
 Noise rule (stated, not tuned against the truth):
 
 * ``R = diag(sensor_std^2)`` (the sensor noise of the noisy case, also used on clean data,
@@ -40,22 +45,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .filterpy_baseline import FilterRun, run_ekf, run_ukf
-from .metrics import rmse
 from .planar import G_ACC
-from .smo import ForceObserverModel
+from .smo import ForceObserverModel, force_errors, omega_h
 
 FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
 N_X = 9
-
-
-def _omega_h(delta: float, q: ForceObserverModel):
-    """``Omega(delta)`` (3, 4) and ``H`` (2, 4) of (9) (R-A4), as :func:`.smo._omega_h`."""
-    c, s = np.cos(delta), np.sin(delta)
-    Om = np.array([[c / q.m, 1.0 / q.m, -s / q.m, 0.0],
-                   [s / q.m, 0.0, c / q.m, 1.0 / q.m],
-                   [q.l_f * s / q.J_z, 0.0, q.l_f * c / q.J_z, -q.l_r / q.J_z]])
-    H = np.array([[q.r_f / q.J_f, 0.0, 0.0, 0.0], [0.0, q.r_r / q.J_r, 0.0, 0.0]])
-    return Om, H
 
 
 def force_rw_model(model: ForceObserverModel):
@@ -66,10 +60,11 @@ def force_rw_model(model: ForceObserverModel):
     step and its exact Jacobian (9, 9) (tangent-linear RK4), ``hjac(x, u) -> [I5 0]`` (5, 9).
     """
     J = np.array([model.J_f, model.J_r])
+    q = model.as_array()
     H5 = np.hstack([np.eye(5), np.zeros((5, 4))])
 
     def f(x, u):
-        Om, H = _omega_h(u[0], model)
+        Om, H = omega_h(u[0], q)
         F = x[5:9]
         dx = np.zeros(N_X)
         dx[0:3] = Om @ F
@@ -87,7 +82,7 @@ def force_rw_model(model: ForceObserverModel):
         return a
 
     def jac(x, u, dt):
-        Om, H = _omega_h(u[0], model)
+        Om, H = omega_h(u[0], q)
         eye = np.eye(N_X)
         k1 = f(x, u)
         d1 = A(x, Om, H)
@@ -135,17 +130,37 @@ def noise_rule(model: ForceObserverModel, sensor_std, t_rise: float = 0.5, mu_ma
     return Q, np.diag(s ** 2)
 
 
+def block_mean(a, dec: int) -> np.ndarray:
+    """Means of the ``len(a) // dec`` complete blocks of ``dec`` consecutive rows of ``a``
+    (N, ...) -> (N // dec, ...); a trailing incomplete block is dropped. ``dec = 1``
+    returns ``a`` itself (as an array)."""
+    a = np.asarray(a, dtype=float)
+    dec = int(dec)
+    if dec < 1:
+        raise ValueError(f"decimate must be >= 1, got {dec}")
+    if dec == 1:
+        return a
+    nb = len(a) // dec
+    return a[:nb * dec].reshape(nb, dec, *a.shape[1:]).mean(axis=1)
+
+
 @dataclass
 class ForceEKFResult:
-    """EKF force estimates at the filter's samples: ``t`` (M,), ``x`` (M, 9) posterior
-    means, ``F`` (M, 4) forces [N], ``F_std`` (M, 4) posterior stds [N], ``idx`` (M,) indices
-    of the samples in the measurement grid, ``run`` the :class:`FilterRun` (timing)."""
+    """EKF force estimates at the filter's samples: ``t`` (M,) block-centre times [s],
+    ``x`` (M, 9) posterior means, ``F`` (M, 4) forces [N], ``F_std`` (M, 4) posterior stds
+    [N], ``idx`` (M,) first measurement index of each block, ``z`` (M, 5) and ``u`` (M, 3) the
+    block-averaged measurements and inputs the filter used, ``R`` (5, 5) its measurement
+    covariance (``R / dec``), ``dec`` the block length, ``run`` the :class:`FilterRun`."""
 
     t: np.ndarray
     x: np.ndarray
     F: np.ndarray
     F_std: np.ndarray
     idx: np.ndarray
+    z: np.ndarray
+    u: np.ndarray
+    R: np.ndarray
+    dec: int
     run: FilterRun
 
     @property
@@ -159,9 +174,11 @@ def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: i
     """Random-walk-force EKF (or UKF, ``filter='ukf'``) on the SMO's measurements.
 
     t (N,) uniform [s], Y (N, 5) ``[v_x, v_y, r, w_f, w_r]``, U (N, 3) ``[delta, T_f, T_r]``
-    (as :func:`.smo.run_force_observer`); the filter uses every ``decimate``-th sample
-    (inputs held over ``decimate dt``). ``x0`` (9,) defaults to the first measurement and
-    zero forces; ``P0_std`` (9,) defaults to 1 m/s, 1 m/s, 0.1 rad/s, 5 rad/s, 5 rad/s and
+    (as :func:`.smo.run_force_observer`); with ``decimate = dec > 1`` the filter runs on the
+    block means of ``dec`` samples (measurements and inputs, :func:`block_mean`; inputs held
+    over the step ``dec dt``) with ``R / dec``, time-stamped at the block centres. ``x0``
+    (9,) defaults to the first (block-mean) measurement and zero forces; ``P0_std`` (9,)
+    defaults to 1 m/s, 1 m/s, 0.1 rad/s, 5 rad/s, 5 rad/s and
     ``F_max`` on the forces. ``Q, R`` from :func:`noise_rule`.
     """
     t = np.asarray(t, dtype=float)
@@ -180,52 +197,47 @@ def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: i
         raise ValueError(f"decimate must be >= 1, got {decimate}")
     if filter not in ("ekf", "ukf"):
         raise ValueError(f"filter must be 'ekf' or 'ukf', got {filter!r}")
-    idx = np.arange(0, len(t), int(decimate))
+    dec = int(decimate)
+    if len(t) < 2 * dec:
+        raise ValueError(f"need at least 2 blocks of decimate = {dec} samples, got N = {len(t)}")
     f, h, jac, hjac = force_rw_model(model)
     Q, R = noise_rule(model, sensor_std, t_rise, mu_max)
+    R = R / dec                       # white noise: the mean of dec samples has R / dec
+    z, u = block_mean(Y, dec), block_mean(U, dec)
+    idx = np.arange(len(z)) * dec
+    tc = block_mean(t, dec)           # block centres
     if x0 is None:
-        x0 = np.concatenate([Y[0], np.zeros(4)])
+        x0 = np.concatenate([z[0], np.zeros(4)])
     if P0_std is None:
         P0_std = np.concatenate([[1.0, 1.0, 0.1, 5.0, 5.0], force_bounds(model, mu_max)])
     P0 = np.diag(np.asarray(P0_std, dtype=float) ** 2)
-    dtf = dt * int(decimate)
+    dtf = dt * dec
     if filter == "ekf":
-        run = run_ekf(f, h, Y[idx], U[idx], dtf, x0, P0, Q, R, jac=jac, hjac=hjac,
+        run = run_ekf(f, h, z, u, dtf, x0, P0, Q, R, jac=jac, hjac=hjac,
                       name="EKF random-walk forces (filterpy)")
     else:
-        run = run_ukf(f, h, Y[idx], U[idx], dtf, x0, P0, Q, R,
-                      name="UKF random-walk forces (filterpy)")
-    return ForceEKFResult(t[idx], run.x, run.x[:, 5:9], np.sqrt(np.maximum(run.P_diag[:, 5:9], 0)),
-                          idx, run)
-
-
-def force_errors(t, F_est, F_true, peak, t_skip: float = 1.0) -> dict:
-    """Force metrics as in the SMO runs (``papers.rabhi2004.part_a_run``): for each force,
-    ``rmse_<nm>`` [N] and ``rmse_pct_<nm>`` [% of ``peak``] over ``t >= t_skip``.
-    t (M,), F_est, F_true (M, 4), peak (4,) [N] (peak of the full truth run)."""
-    t = np.asarray(t, dtype=float)
-    m = t >= t_skip
-    if not m.any():
-        raise ValueError(f"no sample after t_skip = {t_skip} s")
-    out = {}
-    for i, nm in enumerate(FORCE_NAMES):
-        e = rmse(np.asarray(F_est)[m, i], np.asarray(F_true)[m, i])
-        out[f"rmse_{nm}"] = e
-        out[f"rmse_pct_{nm}"] = 100 * e / float(peak[i])
-    return out
+        run = run_ukf(f, h, z, u, dtf, x0, P0, Q, R, name="UKF random-walk forces (filterpy)")
+    return ForceEKFResult(tc, run.x, run.x[:, 5:9], np.sqrt(np.maximum(run.P_diag[:, 5:9], 0)),
+                          idx, z, u, R, dec, run)
 
 
 def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int = 0,
-                   decimate: int = 1, t_skip: float = 1.0, x2_err0=(1.0, 0.5, 0.1),
-                   x3_err0=(5.0, 5.0), filter: str = "ekf", **kw) -> dict:
+                   decimate: int = 1, t_skip: float = 1.0, x2_err0=None, x3_err0=None,
+                   filter: str = "ekf", **kw) -> dict:
     """EKF counterpart of ``papers.rabhi2004.part_a_run``: same truth ``Xs`` (N, 12), same
     measurements (:func:`.smo.measurements_from_truth` with ``noise``, ``seed``), same
-    observer-model ``errors``, same initial velocity/wheel-speed errors, zero initial forces,
-    same metrics after ``t_skip``. ``p`` the truth :class:`.planar.PlanarParams`,
-    ``sensor_std`` (5,) for ``R``. Returns a dict with ``res`` (:class:`ForceEKFResult`),
-    ``rmse_*``, ``rmse_pct_*``, ``us_per_step``."""
+    observer-model ``errors``, same initial velocity/wheel-speed errors (default
+    ``papers.rabhi2004.x2_err0, x3_err0``), zero initial forces, same metrics after ``t_skip``
+    (:func:`.smo.force_errors`; with ``decimate > 1`` against the block means of the true
+    forces, i.e. the truth at the block centres to O(dt^2)). ``p`` the truth
+    :class:`.planar.PlanarParams`, ``sensor_std`` (5,) for ``R``. Returns a dict with ``res``
+    (:class:`ForceEKFResult`), ``Y`` (N, 5) the measurements, ``rmse_*``, ``rmse_pct_*``,
+    ``us_per_step``."""
+    from .papers import rabhi2004 as R
     from .smo import measurements_from_truth
 
+    x2_err0 = R.x2_err0 if x2_err0 is None else x2_err0
+    x3_err0 = R.x3_err0 if x3_err0 is None else x3_err0
     model = ForceObserverModel.from_params(p, **(errors or {}))
     Y = measurements_from_truth(Xs, noise, seed)
     x0 = np.concatenate([Xs[0, 3:6] + np.asarray(x2_err0), Xs[0, 6:8] + np.asarray(x3_err0),
@@ -234,6 +246,6 @@ def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int
                         filter=filter, **kw)
     F = Xs[:, 8:12]
     peak = np.max(np.abs(F), axis=0)
-    out = {"res": res, "us_per_step": res.us_per_step}
-    out.update(force_errors(res.t, res.F, F[res.idx], peak, t_skip))
+    out = {"res": res, "Y": Y, "us_per_step": res.us_per_step}
+    out.update(force_errors(res.t, res.F, block_mean(F, res.dec), peak, t_skip, FORCE_NAMES))
     return out

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from .metrics import rmse
 from .planar import IR, IVX, IVY, IWF, IWR, PlanarParams
 
 SIGN, SAT, LPF = 0, 1, 2
@@ -356,20 +357,57 @@ def measurements_from_truth(Xs, noise_std=None, seed: int = 0) -> np.ndarray:
     return Y
 
 
+def omega_h(delta: float, model: ForceObserverModel):
+    """``Omega(delta)`` (3, 4) and ``H`` (2, 4) of (9) (R-A4) for one steering angle [rad],
+    from the compiled kernel ``_omega_h`` the observer itself uses (single definition, also
+    used by :mod:`.planar_baseline`). ``model`` a :class:`ForceObserverModel` or its
+    :meth:`~ForceObserverModel.as_array`."""
+    q = model.as_array() if isinstance(model, ForceObserverModel) else np.asarray(model, dtype=float)
+    Om, Hm = np.empty((3, 4)), np.empty((2, 4))
+    _omega_h(float(delta), q, Om, Hm)
+    return Om, Hm
+
+
+@njit(cache=True)
+def _omega_x4_bound(d, e, Q, out):
+    Om = np.empty((3, 4))
+    Hm = np.empty((2, 4))
+    for k in range(len(d)):
+        _omega_h(d[k], Q, Om, Hm)
+        for i in range(3):
+            out[k, i] = abs(Om[i, 0] * e[k, 0] + Om[i, 1] * e[k, 1] + Om[i, 2] * e[k, 2]
+                            + Om[i, 3] * e[k, 3])
+        for i in range(2):
+            out[k, 3 + i] = abs(Hm[i, 0] * e[k, 0] + Hm[i, 1] * e[k, 1] + Hm[i, 2] * e[k, 2]
+                                + Hm[i, 3] * e[k, 3])
+
+
 def omega_x4_bound(delta, x4_err, model: ForceObserverModel) -> np.ndarray:
     """``|Omega(d) x~4|`` (N, 3) and ``|H x~4x|`` (N, 2) stacked as (N, 5): the left sides
-    of the gain conditions (13) and (16) along a trajectory (vectorised form of
-    ``_omega_h``)."""
-    d = np.asarray(delta, dtype=float)
-    e = np.asarray(x4_err, dtype=float)
-    c, s = np.cos(d), np.sin(d)
-    m, Jz, lf, lr = model.m, model.J_z, model.l_f, model.l_r
+    of the gain conditions (13) and (16) along a trajectory (compiled loop over the same
+    ``_omega_h`` kernel the observer uses)."""
+    d = np.ascontiguousarray(np.atleast_1d(np.asarray(delta, dtype=float)))
+    e = np.ascontiguousarray(np.asarray(x4_err, dtype=float).reshape(len(d), 4))
     out = np.empty((len(d), 5))
-    out[:, 0] = np.abs(c * e[:, 0] + e[:, 1] - s * e[:, 2]) / m
-    out[:, 1] = np.abs(s * e[:, 0] + c * e[:, 2] + e[:, 3]) / m
-    out[:, 2] = np.abs(lf * s * e[:, 0] + lf * c * e[:, 2] - lr * e[:, 3]) / Jz
-    out[:, 3] = np.abs(model.r_f / model.J_f * e[:, 0])
-    out[:, 4] = np.abs(model.r_r / model.J_r * e[:, 1])
+    _omega_x4_bound(d, e, model.as_array(), out)
+    return out
+
+
+def force_errors(t, F_est, F_true, peak, t_skip: float = 1.0,
+                 names=("Fxf", "Fxr", "Fyf", "Fyr")) -> dict:
+    """Force metrics shared by the SMO and the EKF baseline: for each force ``rmse_<nm>``
+    [N] and ``rmse_pct_<nm>`` [% of ``peak``] over ``t >= t_skip``. t (M,), F_est,
+    F_true (M, 4) [N], peak (4,) [N] (peak of the full truth run)."""
+    t = np.asarray(t, dtype=float)
+    m = t >= t_skip
+    if not m.any():
+        raise ValueError(f"no sample after t_skip = {t_skip} s")
+    F_est, F_true = np.asarray(F_est, dtype=float), np.asarray(F_true, dtype=float)
+    out = {}
+    for i, nm in enumerate(names):
+        e = rmse(F_est[m, i], F_true[m, i])
+        out[f"rmse_{nm}"] = e
+        out[f"rmse_pct_{nm}"] = 100 * e / float(peak[i])
     return out
 
 
