@@ -23,7 +23,7 @@ $(STAMP): environment.txt pyproject.toml
 	@touch $(STAMP)
 
 figures: $(STAMP)
-	$(BIN)/python -m vehicle_observers.pipeline --figures figures --build build/notebooks
+	$(BIN)/python -m vehicle_observers.results.pipeline --figures figures --build build/notebooks
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup
@@ -32,7 +32,7 @@ lab: $(STAMP)
 	$(BIN)/jupyter lab --notebook-dir=notebooks
 
 bench: $(STAMP)
-	$(BIN)/python -m vehicle_observers.benchmark
+	$(BIN)/python -m vehicle_observers.bench
 
 lint: $(STAMP)
 	$(BIN)/ruff check lib tests notebooks

@@ -7,8 +7,8 @@ import os
 from pathlib import Path
 
 import pytest
-from vehicle_observers.logs import repo_root
-from vehicle_observers.reporting import load_metrics
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results.reporting import load_metrics
 
 ROOT = repo_root()
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -16,7 +16,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
     """Run ``notebooks/<name>.ipynb`` (quick mode) and return its metrics plus ``_dir``."""
-    from vehicle_observers.pipeline import run_notebook
+    from vehicle_observers.results.pipeline import run_notebook
 
     nb = ROOT / "notebooks" / f"{name}.ipynb"
     assert nb.exists(), f"missing notebook {nb}"

@@ -7,13 +7,29 @@ import re
 
 import nbformat
 import pytest
-from vehicle_observers import pipeline
-from vehicle_observers.logs import repo_root
-from vehicle_observers.nbbuild import write_notebook
+from nbformat.v4 import new_code_cell, new_notebook
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results import pipeline
 
 ROOT = repo_root()
 NOTEBOOKS = pipeline.notebooks(ROOT)
-PRODUCERS_OUTSIDE_NOTEBOOKS = {"benchmark"}  # written by `make bench` (vehicle_observers.benchmark)
+PRODUCERS_OUTSIDE_NOTEBOOKS = {"benchmark"}  # written by `make bench` (vehicle_observers.bench)
+
+
+def write_notebook(path, cells):
+    """A notebook of ``(kind, source)`` cells (``kind``: ``code`` or ``params``) for the
+    pipeline tests, with the project's kernel."""
+    nb = new_notebook()
+    nb.metadata["kernelspec"] = {"name": "vehicle-observers", "display_name":
+                                 "Python (vehicle-observers)", "language": "python"}
+    for i, (kind, src) in enumerate(cells):
+        c = new_code_cell(src)
+        if kind == "params":
+            c.metadata["tags"] = ["parameters"]
+        c["id"] = f"cell-{i:02d}"
+        nb.cells.append(c)
+    nbformat.write(nb, str(path))
+    return path
 
 
 def test_there_are_notebooks():
@@ -79,7 +95,7 @@ def test_notebook_code_cells_are_thin(nb):
 @pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
 def test_every_notebook_is_executed_by_a_test(nb):
     num = nb.stem[:2]
-    t = ROOT / "tests" / f"test_notebook_{num}.py"
+    t = ROOT / "tests" / "notebooks" / f"test_notebook_{num}.py"
     assert t.exists(), f"no tests/test_notebook_{num}.py for {nb.name}"
     text = t.read_text()
     assert f'"{nb.stem}"' in text and "run_notebook(" in text, f"{t.name} does not run {nb.stem}"

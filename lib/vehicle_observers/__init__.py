@@ -1,21 +1,22 @@
 """vehicle_observers: reproductions of vehicle state observers from five papers.
 
-Modules by concept:
+Subpackages by concept, imports pointing one way (``tests/test_architecture.py``)::
 
-- :mod:`.tires`      Pacejka magic formula, linear tyre, first-order relaxation.
-- :mod:`.lateral`    Yaw-drift model with relaxation and vision model (Yacine 2015).
-- :mod:`.bicycle`    Autonomous bicycle with tracking law (Ichalal 2011).
-- :mod:`.ts`         Generic Takagi-Sugeno builder by sector nonlinearity.
-- :mod:`.lmi`        LMI synthesis with cvxpy + Clarabel and independent certification.
-- :mod:`.logs`       Drive-log CSV schema and validated loader.
-- :mod:`.simulate`   Fixed-step integrators (numba) with zero-order-hold inputs.
-- :mod:`.metrics`    Error metrics.
-- :mod:`.reporting`  Figure/metrics helper used by every notebook.
-- :mod:`.pipeline`   Papermill regeneration of every notebook and REPRODUCTION.md.
-- :mod:`.papers`     Paper-specific constants, one module per paper.
+    core <- models <- design, data <- observers, results <- baselines <- papers <- cli <- bench
+
+- :mod:`.core`       errors, error metrics, signals, array and timing helpers.
+- :mod:`.models`     tyres, Takagi-Sugeno forms, lateral / bicycle / planar / full-car models, vehicle files.
+- :mod:`.design`     LMI synthesis with an independent certificate, pole regions.
+- :mod:`.data`       drive logs, scenario generators, road profiles, identification.
+- :mod:`.observers`  one module per observer kind, each citing its paper; differentiators.
+- :mod:`.baselines`  EKF/UKF/RTS baselines (filterpy), one per observer's own data.
+- :mod:`.results`    figures, metrics.json and claims; the papermill pipeline.
+- :mod:`.papers`     the reproductions: printed constants and each notebook's experiments.
+- :mod:`.cli`        ``python -m vehicle_observers``.
+- :mod:`.bench`      ``make bench``.
 """
 
-from .errors import (
+from vehicle_observers.core.errors import (
     CertificationError,
     InfeasibleDesign,
     LogFormatError,

@@ -1,1 +1,1 @@
-"""Paper-specific constants, one module per paper, each tested against the printed numbers."""
+"""The reproductions (not library code): each paper's printed constants and each notebook's experiments."""

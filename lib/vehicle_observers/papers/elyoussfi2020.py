@@ -25,9 +25,9 @@ Uncertainty (10): ``Delta A_i = M F(t) N_{a,i}``, ``Delta B_i = M F(t) N_{b,i}``
 
 import numpy as np
 
-from .yacine2015 import I_z, m, tire_f, tire_r
-from .yacine2015 import a_f as l_f
-from .yacine2015 import a_r as l_r
+from vehicle_observers.papers.yacine2015 import I_z, m, tire_f, tire_r
+from vehicle_observers.papers.yacine2015 import a_f as l_f
+from vehicle_observers.papers.yacine2015 import a_r as l_r
 
 __all__ = ["m", "I_z", "l_f", "l_r", "tire_f", "tire_r"]
 
@@ -66,7 +66,7 @@ x0_true = np.array([0.3, 0.05])    # v_y [m/s], r [rad/s] (system initial state)
 
 def build_model(rho_value: float | None = None):
     """Identify the fuzzy forces from the Pacejka tyres and build the uncertain TS model."""
-    from ..uio import UncertainLateralTS, fit_fuzzy_forces
+    from vehicle_observers.observers.uio import UncertainLateralTS, fit_fuzzy_forces
 
     ty = fit_fuzzy_forces(tire_f, tire_r, alpha_fit_max, n_fit, fit_x0)
     return UncertainLateralTS(m, I_z, l_f, l_r, vx, ty, C, F_s, M,

@@ -24,8 +24,8 @@ diagonal shift ``epsilon_shift`` = 1000 1/s (bounds the gains), membership-rate 
 
 import numpy as np
 
-from ..interval import SpeedBands, UncertainBicycle
-from . import yacine2015
+from vehicle_observers.observers.interval import SpeedBands, UncertainBicycle
+from vehicle_observers.papers import yacine2015
 
 m = yacine2015.m          # kg
 I_z = yacine2015.I_z      # kg m^2
@@ -68,14 +68,14 @@ L_printed = np.array([
 
 def model(bands_: SpeedBands | None = None, veh: UncertainBicycle | None = None):
     """The switched interval model with this module's vehicle and bands."""
-    from ..interval import SwitchedIntervalModel
+    from vehicle_observers.observers.interval import SwitchedIntervalModel
 
     return SwitchedIntervalModel(veh or vehicle, bands_ or bands)
 
 
 def design(bands_: SpeedBands | None = None, veh: UncertainBicycle | None = None, **kw):
     """Theorem 2 design with this module's constants (keywords override them)."""
-    from ..interval import design_theorem2
+    from vehicle_observers.observers.interval import design_theorem2
 
     opts = dict(eps_decay=eps_decay, epsilon_shift=epsilon_shift, accel_max=accel_max,
                 p_min=p_min)
@@ -100,7 +100,7 @@ revs_steer_noise = 0.01
 
 
 def revs_vehicle(rel_unc: float = revs_rel_unc) -> UncertainBicycle:
-    from . import revs250lm as rv
+    from vehicle_observers.papers import revs250lm as rv
 
     return UncertainBicycle(m=rv.m, I_z=rv.I_z, l_f=rv.l_f, l_r=rv.l_r, c_f0=rv.C_f,
                             c_r0=rv.C_r, rel_unc=rel_unc,
@@ -112,6 +112,6 @@ def revs_design(bands_: SpeedBands | None = None, rel_unc: float = revs_rel_unc,
     opts = dict(eps_decay=eps_decay, epsilon_shift=revs_epsilon_shift,
                 accel_max=revs_accel_max, p_min=p_min)
     opts.update(kw)
-    from ..interval import design_theorem2
+    from vehicle_observers.observers.interval import design_theorem2
 
     return design_theorem2(model(bands_ or revs_bands, revs_vehicle(rel_unc)), **opts)

@@ -9,9 +9,9 @@ tyres, suspension, gains, steps) are chosen in :mod:`..planar`, :mod:`..fullcar`
 :mod:`..smo` and listed with their sources there.
 """
 
-from ..fullcar import FullCarParams
-from ..planar import PlanarParams
-from ..smo import ForceObserverGains, RoadObserverGains
+from vehicle_observers.models.fullcar import FullCarParams
+from vehicle_observers.models.planar import PlanarParams
+from vehicle_observers.observers.sliding_mode import ForceObserverGains, RoadObserverGains
 
 # --- printed structure, Part A (eq. (9)) ---
 n_x1 = 3          # (x, y, psi)
@@ -49,11 +49,11 @@ contact_length = 0.1   # m, tyre-enveloping window on the Belgian block
 # (used by notebook 05 and its tests; each returns truth, estimates and metrics)
 import numpy as np  # noqa: E402
 
-from .. import fullcar as _fc  # noqa: E402
-from .. import planar as _pl  # noqa: E402
-from .. import road as _road  # noqa: E402
-from .. import smo as _smo  # noqa: E402
-from ..metrics import rmse as _rmse  # noqa: E402
+from vehicle_observers.core.metrics import rmse as _rmse  # noqa: E402
+from vehicle_observers.data import road as _road  # noqa: E402
+from vehicle_observers.models import fullcar as _fc  # noqa: E402
+from vehicle_observers.models import planar as _pl  # noqa: E402
+from vehicle_observers.observers import sliding_mode as _smo  # noqa: E402
 
 FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
 X2_NAMES = ("vx", "vy", "r")

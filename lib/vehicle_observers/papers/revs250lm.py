@@ -10,8 +10,8 @@ lateral acceleration reaches 12 m/s^2, so mu >= 1.2) and static axle loads, ``C 
 ``E = 0``; relaxation length 0.1 m as in Yacine 2015 (no value is known for this car).
 """
 
-from ..lateral import LateralParams
-from ..tires import LinearTire, Pacejka
+from vehicle_observers.models.lateral import LateralParams
+from vehicle_observers.models.tires import LinearTire, Pacejka
 
 g = 9.81
 m = 982.0

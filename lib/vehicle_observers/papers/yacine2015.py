@@ -13,8 +13,8 @@ forces (D) are printed by ``tests/test_papers.py``.
 
 import numpy as np
 
-from ..lateral import LateralParams
-from ..tires import Pacejka
+from vehicle_observers.models.lateral import LateralParams
+from vehicle_observers.models.tires import Pacejka
 
 m = 1500.0          # kg
 I_z = 2454.0        # kg m^2
@@ -42,6 +42,6 @@ params = LateralParams(m=m, I_z=I_z, a_f=a_f, a_r=a_r, tire_f=tire_f, tire_r=tir
 
 def ts_model():
     """The paper's 8-submodel TS model (24) with its printed bounds."""
-    from ..lateral import yacine_ts
+    from vehicle_observers.models.lateral import yacine_ts
 
     return yacine_ts(params, Mf=(M_f2, M_f1), Mr=(M_r2, M_r1), vx_bounds=(vx_min, vx_max))

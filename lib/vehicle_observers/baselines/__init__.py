@@ -1,0 +1,1 @@
+"""Kalman baselines: EKF/UKF/RTS on the lateral model and the filterpy EKF set against each observer."""

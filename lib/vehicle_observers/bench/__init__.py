@@ -1,0 +1,1 @@
+"""Speed and accuracy benchmark (make bench) and the per-topic speed benchmarks."""

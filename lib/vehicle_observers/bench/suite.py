@@ -1,0 +1,480 @@
+"""One benchmark for every registered observer (``make bench`` = ``python -m
+vehicle_observers.bench.suite``; Notebook 07 shows the same tables and plots).
+
+Datasets (:func:`datasets`)
+    ``satory_n1`` / ``satory_n3``: the emulated Satory run (:func:`scenarios.emulated_satory`)
+    at sensor-noise scale 1 and 3; ``swd``: sine with dwell at 17 m/s reaching ~7 deg front
+    slip (nonlinear tyre region, :func:`scenarios.sine_with_dwell`); ``revs``: the real Revs
+    250 LM log (INS ``v_y`` as reference). Emulated runs use the ``yacine2015`` vehicle file,
+    the real log ``revs250lm``.
+
+Observers: every registry entry whose required columns the dataset has. The filterpy EKF and
+UKF (pure Python, ~0.1-1 ms per step) run on ``filterpy_steps`` samples only, starting at the
+first scored sample; their rows say so (``samples`` column), their accuracy is over that
+window and they get no ratio against the whole-run EKF/RTS.
+
+Kalman noise tuning: ML on the measured channels of each log's first 120 s
+(:func:`registry.kalman_tuning`); the 7 s sine-with-dwell is too short for ML and reuses the
+tuning of the Satory run with the same noise level (same car and sensors).
+
+Metrics (:func:`registry.score`): RMSE / max error of ``v_y``, sideslip, yaw rate (against the
+noise-free yaw rate in emulated logs, the measured one on the real log), axle forces where
+the log has them; interval enclosure and mean width. Emulated runs are scored where
+``v_x > 1 m/s`` and ``t > 1 s`` (the run starts from 0.2 m/s where every model is singular);
+the real log on every sample. Cost per step = wall time of the estimation loop (compiled,
+after a warm-up) / samples; real-time factor = log duration / wall time; design time = LMI
+solve (or ML tuning for the Kalman filters). Ratios: ``rmse_vy`` / that of ``ekf`` and of
+``rts`` on the same dataset; speed-up = filterpy EKF cost per step / the observer's.
+
+Outputs in ``figures/benchmark/``: ``benchmark.csv``, ``benchmark.md``, ``speed_topics.csv``
+(the per-topic benchmarks of ``vehicle_observers/bench/<topic>.py``), ``losses_revs.csv``
+(where each estimator loses on the real log) and PNG plots.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib
+import pkgutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from vehicle_observers.cli import registry as RG
+from vehicle_observers.core.metrics import rmse
+from vehicle_observers.data.logs import DriveLog, load_revs, repo_root
+from vehicle_observers.models.vehicle import load_vehicle
+
+COLUMNS = ["dataset", "observer", "causal", "samples", "rmse_vy", "max_vy", "rmse_beta",
+           "max_beta", "rmse_r", "max_r", "rmse_Ff", "max_Ff", "rmse_Fr", "max_Fr",
+           "enclosure_vy", "width_vy", "enclosure_r", "width_r", "us_per_step",
+           "realtime_factor", "design_s", "ratio_vy_vs_ekf", "ratio_vy_vs_rts",
+           "speedup_vs_filterpy_ekf"]
+SLOW = ("ekf-filterpy", "ukf")
+KALMAN = ("ekf", "ekf-filterpy", "ukf", "rts")
+#: one colour per observer in every plot
+COLORS = {"ekf": "C1", "ekf-filterpy": "C0", "ukf": "C2", "rts": "C3", "ts-yacine2015": "C4",
+          "interval-ifqir2017": "C5"}
+
+
+def _color(name, j=0):
+    return COLORS.get(name, f"C{6 + j % 4}")
+
+
+#: literature references on the Revs log (issue 8): v_y RMSE [m/s]
+REVS_REFERENCES = {"vy = 0": 0.743, "their KF (linear bicycle, r + a_y)": 0.350,
+                   "open-loop linear bicycle": 0.282, "offline factor graph": 0.242}
+
+
+def datasets(seed: int = 0, quick: bool = False) -> dict[str, tuple[DriveLog, str, np.ndarray]]:
+    """``{name: (log, vehicle file, score mask)}``. Quick: the first 40 s of the Satory run
+    (the Revs log is always used whole: the numba estimators need ~0.1 s for it)."""
+    from vehicle_observers.data.scenarios import emulated_satory, sine_with_dwell
+
+    out = {}
+    for ns in (1.0, 3.0):
+        log = emulated_satory(seed=seed, quick=quick, noise_scale=ns)
+        out[f"satory_n{ns:g}"] = (log, "yacine2015", _emu_mask(log))
+    swd = sine_with_dwell(seed=seed)
+    out["swd"] = (swd, "yacine2015", _emu_mask(swd))
+    revs = load_revs()
+    out["revs"] = (revs, "revs250lm", np.ones(len(revs), bool))
+    return out
+
+
+def _emu_mask(log):
+    vx = log.extra.get("vx_true_mps", log.vx)
+    return (vx > 1.0) & (log.t - log.t[0] > 1.0)
+
+
+def _warm_up(observers, vehicles):
+    """Compile every numba kernel once on a short emulated log (not timed)."""
+    from vehicle_observers.data.scenarios import sine_with_dwell
+
+    log = sine_with_dwell(seed=0, t_after=0.5)
+    veh = vehicles["yacine2015"]
+    from vehicle_observers.models.vehicle import KalmanTuning
+
+    for name, spec in observers.items():
+        if name in SLOW:
+            continue
+        try:
+            spec.check(log, veh)
+            spec.run(log.segment(0.0, 0.3), veh, tuning=KalmanTuning())
+        except Exception:  # noqa: BLE001 - warm-up only; the real run reports errors
+            pass
+
+
+def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
+        observers=None, progress=None, tune_maxiter: int = 300) -> dict:
+    """Run the benchmark (``tune_maxiter``: Nelder-Mead iterations per start of the ML
+    tuning; do not lower it: a stopped-early search can leave large ``q_vy, q_b`` with which
+    the EKF drifts onto the saturated-tyre branch, e.g. 13.5 m/s RMSE on the quick n3 run
+    with 120 iterations against 0.0015 with 300). Returns ``{"rows": [...], "estimates":
+    {(dataset, obs): Estimates}, "logs": {...}, "tunings": {...}, "errors": [...]}``."""
+    filterpy_steps = filterpy_steps or (3000 if quick else 60000)
+    obs = RG.available()
+    if observers is not None:
+        obs = {k: v for k, v in obs.items() if k in observers}
+    vehicles = {n: load_vehicle(n) for n in ("yacine2015", "revs250lm")}
+    _warm_up(obs, vehicles)
+    data = datasets(seed, quick)
+    rows, ests, tunings, errors = [], {}, {}, []
+    for dname, (log, vname, mask) in data.items():
+        veh = vehicles[vname]
+        if not any(o in KALMAN for o in obs):
+            tun, tsec = None, 0.0
+        elif dname == "swd":
+            tun, tsec = tunings["satory_n1"]
+        else:
+            tun, tsec = RG.kalman_tuning(log, veh, maxiter=tune_maxiter)
+        if tun is not None:
+            tunings[dname] = (tun, tsec)
+        for oname, spec in obs.items():
+            if progress:
+                progress(f"{dname}: {oname}")
+            try:
+                spec.check(log, veh)
+            except Exception:  # noqa: BLE001 - not applicable to this dataset
+                continue
+            lg, mk = log, mask
+            if oname in SLOW and len(log) > filterpy_steps:
+                # window of filterpy_steps samples starting where the scoring mask starts
+                i0 = int(np.argmax(mask))
+                i1 = min(i0 + filterpy_steps, len(log))
+                lg = log.segment(log.t[i0], log.t[i1 - 1])
+                mk = mask[i0:i1]
+            try:
+                est = spec.run(lg, veh, tuning=tun)
+            except Exception as exc:  # noqa: BLE001 - reported in the table
+                errors.append(f"{dname}/{oname}: {type(exc).__name__}: {exc}")
+                continue
+            if est.observer.startswith(("ekf", "ukf", "rts")):
+                est.design_seconds = tsec
+            ests[(dname, oname)] = est
+            m = RG.score(est, lg, mk)
+            row = {"dataset": dname, "observer": oname, "causal": est.causal,
+                   "samples": len(lg), **m, "us_per_step": est.us_per_step,
+                   "realtime_factor": lg.duration / max(est.seconds, 1e-12),
+                   "design_s": est.design_seconds}
+            rows.append(row)
+    _ratios(rows)
+    return {"rows": rows, "estimates": ests, "logs": {k: v[0] for k, v in data.items()},
+            "masks": {k: v[2] for k, v in data.items()}, "tunings": tunings, "errors": errors,
+            "quick": bool(quick), "seed": int(seed)}
+
+
+def _ratios(rows):
+    by = {(r["dataset"], r["observer"]): r for r in rows}
+    for r in rows:
+        for ref, key in (("ekf", "ratio_vy_vs_ekf"), ("rts", "ratio_vy_vs_rts")):
+            b = by.get((r["dataset"], ref))
+            if b is not None and "rmse_vy" in r and b.get("samples") == r["samples"]:
+                r[key] = r["rmse_vy"] / b["rmse_vy"]
+            elif b is not None and "rmse_vy" in r:
+                r[key] = float("nan")  # different window (filterpy rows): see samples
+        fp = by.get((r["dataset"], "ekf-filterpy"))
+        if fp is not None:
+            r["speedup_vs_filterpy_ekf"] = fp["us_per_step"] / r["us_per_step"]
+
+
+# ------------------------------------------------------------------ losses on the real log
+def revs_losses(log: DriveLog, ests: dict, names=("ekf", "ukf", "rts", "interval-ifqir2017")):
+    """Where each estimator loses on the real log: v_y RMSE by |a_y| bin (slip saturation),
+    by speed bin, and by the disagreement of the a_y channel with ``dv_y/dt + v_x r`` computed
+    from the INS reference (``d_ay``). Rows ``{"factor", "bin", "share", <observer>: rmse}``."""
+    ay = np.abs(log.extra.get("ay_filt_mps2", log.ay))
+    vy_dot = np.gradient(log.vy, log.t)
+    d_ay = np.abs(log.ay - (vy_dot + log.vx * log.yaw_rate))
+    factors = {"|a_y| [m/s^2]": (ay, [0, 4, 8, 10, 20]),
+               "v_x [m/s]": (log.vx, [0, 25, 35, 45, 70]),
+               "|a_y - (dv_y/dt + v_x r)| [m/s^2]": (d_ay, [0, 0.5, 1.0, 2.0, 100])}
+    rows = []
+    for fname, (x, edges) in factors.items():
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            m = (x >= lo) & (x < hi)
+            if m.sum() < 10:
+                continue
+            row = {"factor": fname, "bin": f"[{lo:g}, {hi:g})", "share": float(m.mean())}
+            for n in names:
+                e = ests.get(n)
+                if e is not None and len(e.t) == len(log):
+                    row[n] = rmse(e.columns["vy_mps"], log.vy, m)
+            rows.append(row)
+    return rows
+
+
+def amplitude_ratio(est, ref) -> float:
+    """Least-squares gain ``g`` of ``ref ~ g est`` (< 1: the estimate overshoots the
+    reference's amplitude)."""
+    est, ref = np.asarray(est, float), np.asarray(ref, float)
+    return float(np.dot(est, ref) / np.dot(est, est))
+
+
+# ------------------------------------------------------------------ topic speed benchmarks
+def topic_benchmarks(quick: bool = False, skip=()) -> list[dict]:
+    """Run every ``vehicle_observers.bench.<topic>.run(quick)`` and tag rows by topic."""
+    from vehicle_observers import bench as benchmarks
+
+    rows = []
+    for mod in sorted(m.name for m in pkgutil.iter_modules(benchmarks.__path__)):
+        if mod in skip or mod in ("suite",) or mod.startswith("_"):
+            continue
+        try:
+            m = importlib.import_module(f"{benchmarks.__name__}.{mod}")
+            for r in m.run(quick=quick):
+                rows.append({"topic": mod, **r})
+        except Exception as exc:  # noqa: BLE001 - one failing topic must not hide the rest
+            rows.append({"topic": mod, "component": f"FAILED: {type(exc).__name__}: {exc}",
+                         "steps": 0, "seconds": float("nan"), "us_per_step": float("nan")})
+    return rows
+
+
+# ------------------------------------------------------------------ tables / files ------
+def _fmt(v, col=""):
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return ""
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "OFFLINE"
+    if isinstance(v, (int, np.integer)):
+        return str(v)
+    if isinstance(v, float):
+        if col.startswith("enclosure"):
+            return f"{100 * v:.1f} %"
+        return f"{v:.4g}"
+    return str(v)
+
+
+def markdown_table(rows, cols) -> str:
+    cols = [c for c in cols if any(c in r for r in rows)]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for r in rows:
+        lines.append("| " + " | ".join(_fmt(r.get(c), c) for c in cols) + " |")
+    return "\n".join(lines)
+
+
+def write_csv_rows(path: Path, rows, cols=None):
+    cols = cols or list(dict.fromkeys(k for r in rows for k in r))
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=cols, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({c: ("" if r.get(c) is None else r.get(c)) for c in cols})
+
+
+def summary_columns():
+    return ["dataset", "observer", "causal", "samples", "rmse_vy", "max_vy", "rmse_beta",
+            "rmse_r", "rmse_Ff", "rmse_Fr", "enclosure_vy", "width_vy", "enclosure_r",
+            "width_r", "us_per_step", "realtime_factor", "design_s", "ratio_vy_vs_ekf",
+            "ratio_vy_vs_rts", "speedup_vs_filterpy_ekf"]
+
+
+# ------------------------------------------------------------------ plots ---------------
+def fig_rmse(rows):
+    import matplotlib.pyplot as plt
+
+    ds = list(dict.fromkeys(r["dataset"] for r in rows))
+    obs = list(dict.fromkeys(r["observer"] for r in rows))
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    w = 0.8 / len(obs)
+    for j, o in enumerate(obs):
+        for key, a in (("rmse_vy", ax[0]), ("us_per_step", ax[1])):
+            xs, ys = [], []
+            for i, d in enumerate(ds):
+                r = next((r for r in rows if r["dataset"] == d and r["observer"] == o), None)
+                if r is not None and np.isfinite(r.get(key, np.nan)):
+                    xs.append(i + j * w)
+                    ys.append(r[key])
+            a.bar(xs, ys, w, label=o, color=_color(o, j))
+    for a, lab in zip(ax, ("v_y RMSE [m/s]", "cost per step [us]")):
+        a.set_xticks(np.arange(len(ds)) + 0.4 - w / 2)
+        a.set_xticklabels(ds)
+        a.set_yscale("log")
+        a.set_ylabel(lab)
+    ax[0].axhline(0.24, color="k", ls=":", lw=0.8)
+    ax[0].text(len(ds) - 1, 0.26, "target 0.24 (revs)", fontsize=7, ha="right")
+    ax[0].legend(fontsize=7, ncol=2)
+    return fig
+
+
+def fig_revs(log, ests, t_zoom=None):
+    import matplotlib.pyplot as plt
+
+    from vehicle_observers.core.arrays import decimate
+
+    fig, ax = plt.subplots(2, 1, figsize=(10, 6.4))
+    names = [n for n in ("ekf", "ukf", "rts", "interval-ifqir2017") if n in ests]
+    for a, (t0, t1) in zip(ax, ((log.t[0], log.t[-1]), t_zoom or (log.t[0], log.t[0] + 40))):
+        m = (log.t >= t0) & (log.t <= t1)
+        tt, ref = decimate(log.t[m], log.vy[m], max_points=3000)
+        for k, n in enumerate(names):
+            e = ests[n]
+            if len(e.t) != len(log):
+                mm = (e.t >= t0) & (e.t <= t1)
+                if not mm.any():
+                    continue
+                te, v = decimate(e.t[mm], e.columns["vy_mps"][mm], max_points=3000)
+            else:
+                te, v = decimate(log.t[m], e.columns["vy_mps"][m], max_points=3000)
+            if "vy_lo_mps" in e.columns:
+                _, lo, hi = decimate(log.t[m], e.columns["vy_lo_mps"][m],
+                                     e.columns["vy_hi_mps"][m], max_points=3000)
+                a.fill_between(te, lo, hi, color=_color(n, k), alpha=0.15, lw=0,
+                               label=f"{n} [lo, hi]")
+            else:
+                a.plot(te, v, color=_color(n, k), lw=0.8, label=n)
+        a.plot(tt, ref, color="k", lw=0.9, label="INS reference")
+        a.set_ylabel("v_y [m/s]")
+    ax[0].legend(ncol=5, fontsize=7, loc="upper right")
+    ax[1].set_xlabel("t [s]")
+    ax[0].set_title("Revs 250 LM: lateral velocity estimates")
+    return fig
+
+
+def fig_losses(loss_rows):
+    import matplotlib.pyplot as plt
+
+    factors = list(dict.fromkeys(r["factor"] for r in loss_rows))
+    names = [k for k in loss_rows[0] if k not in ("factor", "bin", "share")]
+    fig, ax = plt.subplots(1, len(factors), figsize=(12, 3.8))
+    for a, f in zip(np.atleast_1d(ax), factors):
+        rr = [r for r in loss_rows if r["factor"] == f]
+        x = np.arange(len(rr))
+        w = 0.8 / max(len(names), 1)
+        for j, n in enumerate(names):
+            a.bar(x + j * w, [r.get(n, np.nan) for r in rr], w, label=n, color=_color(n, j))
+        a.set_xticks(x + 0.4 - w / 2)
+        a.set_xticklabels([f"{r['bin']}\n{100 * r['share']:.0f} %" for r in rr], fontsize=7)
+        a.set_xlabel(f)
+        a.set_ylabel("v_y RMSE [m/s]")
+    np.atleast_1d(ax)[0].legend(fontsize=7)
+    return fig
+
+
+def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
+    """CSV + Markdown tables and plots into ``out_dir``; returns the written paths."""
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = res["rows"]
+    paths = []
+    p = out_dir / "benchmark.csv"
+    write_csv_rows(p, rows, COLUMNS)
+    paths.append(p)
+    md = ["# Observer benchmark", "", "Generated by `python -m vehicle_observers.bench.suite` "
+          "(`make bench`); see the module docstring for the protocol.", "",
+          markdown_table(rows, summary_columns()), ""]
+    if "revs" in res["logs"]:
+        md += ["Real-log references (v_y RMSE over the whole run, issue 8): " + ", ".join(
+            f"{k} {v}" for k, v in REVS_REFERENCES.items()) + " m/s.", ""]
+        loss = revs_losses(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
+                                                   if d == "revs"})
+        write_csv_rows(out_dir / "losses_revs.csv", loss)
+        paths.append(out_dir / "losses_revs.csv")
+        md += ["## Where the estimators lose on the real log (v_y RMSE by bin)", "",
+               markdown_table(loss, list(loss[0])), ""]
+        fig = fig_losses(loss)
+        fig.savefig(out_dir / "losses_revs.png", dpi=110, metadata={"Software": None})
+        plt.close(fig)
+        paths.append(out_dir / "losses_revs.png")
+        fig = fig_revs(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
+                                             if d == "revs"})
+        fig.savefig(out_dir / "revs_vy.png", dpi=110, metadata={"Software": None})
+        plt.close(fig)
+        paths.append(out_dir / "revs_vy.png")
+    md += ["## Kalman noise tuning (ML on measured channels)", ""]
+    for d, (tun, sec) in res["tunings"].items():
+        md.append(f"- {d}: q_vy={tun.q_vy:.3g}, q_r={tun.q_r:.3g}, q_b={tun.q_b:.3g}, "
+                  f"R_r={tun.R_r:.3g}, R_ay={tun.R_ay:.3g} ({tun.source}; {sec:.1f} s)")
+    md.append("")
+    if topics:
+        write_csv_rows(out_dir / "speed_topics.csv", topics)
+        paths.append(out_dir / "speed_topics.csv")
+        md += ["## Per-topic speed benchmarks (`vehicle_observers/bench/<topic>.py`)", "",
+               markdown_table(topics, ["topic", "component", "steps", "seconds",
+                                       "us_per_step"]), ""]
+    if res["errors"]:
+        md += ["## Errors", ""] + [f"- {e}" for e in res["errors"]] + [""]
+    (out_dir / "benchmark.md").write_text("\n".join(md))
+    paths.append(out_dir / "benchmark.md")
+    fig = fig_rmse(rows)
+    fig.savefig(out_dir / "rmse_cost.png", dpi=110, metadata={"Software": None})
+    plt.close(fig)
+    paths.append(out_dir / "rmse_cost.png")
+    # metrics.json in the notebooks' format (tests/test_repository.py checks the file list)
+    import json
+
+    from vehicle_observers.results.reporting import _jsonable
+
+    names = sorted({p.name for p in paths} | {"metrics.json"})
+    doc = {"notebook": "benchmark", "quick": bool(res.get("quick", False)),
+           "seed": int(res.get("seed", 0)),
+           "metrics": {k: {"value": _jsonable(v), "unit": "", "note": ""}
+                       for k, v in key_metrics(res).items()},
+           "claims": [], "files": names}
+    (out_dir / "metrics.json").write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    paths.append(out_dir / "metrics.json")
+    for f in out_dir.iterdir():  # leftovers of an earlier run with other options
+        if f.is_file() and f.name not in names and f.suffix in (".csv", ".md", ".png", ".json"):
+            f.unlink()
+    return paths
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m vehicle_observers.bench.suite")
+    ap.add_argument("--quick", action="store_true", help="short runs (CI)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=str(repo_root() / "figures" / "benchmark"))
+    ap.add_argument("--no-topics", action="store_true",
+                    help="skip the per-topic speed benchmarks")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    res = run(seed=args.seed, quick=args.quick,
+              progress=lambda s: print(f"  running {s}", file=sys.stderr, flush=True))
+    topics = None if args.no_topics else topic_benchmarks(args.quick)
+    paths = write_outputs(res, Path(args.out), topics)
+    print(markdown_table(res["rows"], summary_columns()))
+    if topics:
+        print()
+        print(markdown_table(topics, ["topic", "component", "steps", "seconds", "us_per_step"]))
+    for e in res["errors"]:
+        print("error:", e)
+    print(f"\nwrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+
+def key_metrics(res: dict) -> dict:
+    """Flat metrics for the notebook / tests: ``<dataset>.<observer>.<metric>`` for the
+    accuracy, cost and ratio columns, plus ``revs.best_causal`` (name) /
+    ``revs.best_causal_rmse_vy`` over the causal observers run on the whole real log and
+    ``min_speedup_vs_filterpy_ekf`` over the compiled causal observers (all datasets; the
+    offline RTS smoother is excluded)."""
+    out = {}
+    keep = ("rmse_vy", "max_vy", "rmse_beta", "rmse_r", "rmse_Ff", "rmse_Fr", "enclosure_vy",
+            "width_vy", "enclosure_r", "width_r", "us_per_step", "realtime_factor", "design_s",
+            "ratio_vy_vs_ekf", "ratio_vy_vs_rts", "speedup_vs_filterpy_ekf", "samples")
+    for r in res["rows"]:
+        for k in keep:
+            v = r.get(k)
+            if v is not None and not (isinstance(v, float) and not np.isfinite(v)):
+                out[f"{r['dataset']}.{r['observer']}.{k}"] = v
+    n_revs = len(res["logs"]["revs"]) if "revs" in res["logs"] else 0
+    causal = [r for r in res["rows"] if r["dataset"] == "revs" and r["causal"]
+              and r["samples"] == n_revs and "rmse_vy" in r]
+    if causal:
+        best = min(causal, key=lambda r: r["rmse_vy"])
+        out["revs.best_causal"] = best["observer"]
+        out["revs.best_causal_rmse_vy"] = best["rmse_vy"]
+    sp = [r["speedup_vs_filterpy_ekf"] for r in res["rows"]
+          if r["observer"] not in SLOW and r["causal"] and "speedup_vs_filterpy_ekf" in r]
+    if sp:
+        out["min_speedup_vs_filterpy_ekf"] = float(min(sp))
+    return out
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,156 @@
+"""Registry adapters for the observers of the other modules (imported by the package ``cli``).
+
+Each adapter builds the observer's design from a :class:`~vehicle_observers.models.vehicle.Vehicle`
+(mass, inertia, axle distances, tyres, ``[uncertainty]`` box) with a rule that applies to
+any vehicle file, runs it on a :class:`~vehicle_observers.data.logs.DriveLog` and returns
+:class:`~vehicle_observers.cli.registry.Estimates`. The observers themselves are not changed.
+
+- ``ts-yacine2015``: Yacine 2015 TS observer (31) with Theorem 1 (33) (:mod:`.observers.ts_premise`).
+  Needs the vision channels ``yL_m, psiL_rad`` (the premise ``v_y`` comes from them, (26)).
+  TS sectors: secant-stiffness range of the vehicle's tyres over
+  ``|alpha| <= uncertainty.slip_max_deg``; speed premise ``[vx_min, vx_max]``.
+- ``interval-ifqir2017``: switched TS interval observer (11), Theorem 2 (:mod:`.observers.interval`).
+  Nominal stiffness = the tyres' slope at zero slip, box ``+- uncertainty.stiffness_rel``;
+  three speed bands with equal ``v_max/v_min`` ratio over ``[vx_min, vx_max]``; the (20)
+  shift ``epsilon = 1/dt`` (one Euler step per sample keeps discrete positivity);
+  ``|dv_x/dt| <= 12 m/s^2`` (1.2 g, a bound for any road car); measurement bounds
+  ``|y - r| <= 4 sigma_r`` and ``|delta_meas - delta| <= 4 sigma_delta`` with the sigmas
+  the standard deviation of the first difference / sqrt(2) of each channel (white-noise
+  part), floored at 1e-4; initial box ``v_y in [-2, 2] m/s``, ``r`` +-0.6 rad/s around the
+  first measurement.
+
+Not registered: the relaxed UIO of :mod:`.observers.uio` (El Youssfi 2020): its model measures
+``v_y`` *and* ``r`` (``C = I``) at one constant speed and estimates an actuator/sensor
+fault, a different problem from estimating ``v_y`` from yaw rate on a variable-speed log.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from vehicle_observers.cli.registry import Estimates, ObserverSpec, register
+
+VEHICLE_KEYS = ("m", "I_z", "a_f", "a_r", "tire_front", "tire_rear")
+
+
+def _noise_std(x):
+    """Std of the white part of a channel: std(diff(x)) / sqrt(2)."""
+    return float(np.std(np.diff(np.asarray(x, float))) / np.sqrt(2.0))
+
+
+# ------------------------------------------------------------------ Yacine 2015 TS -------
+try:
+    from vehicle_observers.models.lateral import yacine_ts as _yacine_ts
+    from vehicle_observers.observers import ts_premise as _to
+except ImportError:  # pragma: no cover - module not there
+    _to = None
+
+
+def ts_design(vehicle):
+    """Theorem 1 design for ``vehicle`` (cached per vehicle). Returns (design, seconds of
+    the LMI solve; the first solve's time is returned for cached designs)."""
+    key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())))
+    if key in _TS_CACHE:
+        return _TS_CACHE[key]
+    vmin, vmax, amax = vehicle.need_uncertainty("vx_min", "vx_max", "slip_max_deg",
+                                                purpose="observer 'ts-yacine2015'")
+    p = vehicle.params
+    a = np.radians(amax)
+    ts = _yacine_ts(p, Mf=p.tire_f.sector_bounds(a), Mr=p.tire_r.sector_bounds(a),
+                    vx_bounds=(vmin, vmax))
+    t0 = time.perf_counter()
+    des = _to.design_theorem1(ts, alpha=1e-3)
+    sec = time.perf_counter() - t0
+    _TS_CACHE[key] = (des, sec)
+    return des, sec
+
+
+_TS_CACHE: dict = {}
+
+
+def _run_ts(log, vehicle, **_):
+    des, sec = ts_design(vehicle)
+    t0 = time.perf_counter()
+    run = _to.run_observer(log, des, params=vehicle.params)
+    wall = time.perf_counter() - t0
+    cols = {"vy_mps": run.vy, "yaw_rate_radps": run.x[:, 1],
+            "beta_rad": np.arctan2(run.vy, log.vx), "Ff_N": run.Ff, "Fr_N": run.Fr}
+    return Estimates("ts-yacine2015", log.t, cols, wall, sec, True,
+                     {"clipped_share": float(run.clipped.any(axis=1).mean()),
+                      "lmi_margin": des.margins()["xi_original_min_margin"],
+                      "note": "wall time includes the vision-chain differentiators"})
+
+
+if _to is not None:
+    register(ObserverSpec(
+        "ts-yacine2015",
+        "Yacine 2015 TS observer (31), Theorem 1 LMI (33), premise v_y from vision (26)",
+        _run_ts, columns=("yL_m", "psiL_rad"),
+        vehicle_keys=VEHICLE_KEYS + ("l_s", "uncertainty.vx_min", "uncertainty.vx_max",
+                                     "uncertainty.slip_max_deg"),
+        paper="Yacine 2015"))
+
+
+# ------------------------------------------------------------------ Ifqir 2017 interval --
+try:
+    from vehicle_observers.observers import interval as _iv
+except ImportError:  # pragma: no cover
+    _iv = None
+
+ACCEL_MAX = 12.0  # m/s^2
+_IV_CACHE: dict = {}
+
+
+def interval_design(vehicle, dt: float):
+    """Theorem 2 design for ``vehicle`` at sample period ``dt``. Returns (design, seconds)."""
+    key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())), round(dt, 9))
+    if key in _IV_CACHE:
+        return _IV_CACHE[key]
+    rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
+                                               purpose="observer 'interval-ifqir2017'")
+    p = vehicle.params
+    veh = _iv.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+                               c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
+    bands = _iv.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+    model = _iv.SwitchedIntervalModel(veh, bands)
+    t0 = time.perf_counter()
+    des = _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
+                              accel_max=ACCEL_MAX, p_min=1.0)
+    sec = time.perf_counter() - t0
+    _IV_CACHE[key] = (des, sec)
+    return des, sec
+
+
+def _run_interval(log, vehicle, **_):
+    des, sec = interval_design(vehicle, log.dt)
+    y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
+    d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
+    r0 = float(log.yaw_rate[0])
+    t0 = time.perf_counter()
+    res = _iv.run_interval_observer(des, log.dt, log.vx, log.delta - d_noise,
+                                    log.delta + d_noise, log.yaw_rate, [-2.0, r0 - 0.6],
+                                    [2.0, r0 + 0.6], y_noise=y_noise, clip_speed=True)
+    wall = time.perf_counter() - t0
+    mid = 0.5 * (res.x_lo + res.x_hi)
+    cols = {"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
+            "beta_rad": np.arctan2(mid[:, 0], log.vx),
+            "vy_lo_mps": res.x_lo[:, 0], "vy_hi_mps": res.x_hi[:, 0],
+            "yaw_rate_lo_radps": res.x_lo[:, 1], "yaw_rate_hi_radps": res.x_hi[:, 1]}
+    return Estimates("interval-ifqir2017", log.t, cols, wall, sec, True,
+                     {"y_noise": y_noise, "steer_noise": d_noise, "n_clipped": res.n_clipped,
+                      "substeps": res.substeps, "gamma": des.gamma,
+                      "lmi_margin": des.lmi_margin,
+                      "metzler_margin": des.min_metzler_margin})
+
+
+if _iv is not None:
+    register(ObserverSpec(
+        "interval-ifqir2017",
+        "Ifqir 2017 switched TS interval observer (11), Theorem 2 LMI; bounds on vy and r "
+        "(point estimate = interval midpoint)",
+        _run_interval,
+        vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
+                                     "uncertainty.vx_max"),
+        interval=True, paper="Ifqir 2017"))

@@ -1,0 +1,1 @@
+"""Foundations without vehicle knowledge: errors, error metrics, signals, array and timing helpers."""

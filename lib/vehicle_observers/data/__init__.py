@@ -1,0 +1,1 @@
+"""Drive logs (schema and validated loader), scenario generators, road profiles, identification."""

@@ -1,0 +1,1 @@
+"""LMI synthesis with an independent eigenvalue certificate, and LMI pole regions."""

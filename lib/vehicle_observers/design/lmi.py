@@ -1,0 +1,358 @@
+"""LMI synthesis with cvxpy + Clarabel, and an independent certificate for every solution.
+
+Every design in this repository is written as *builders*: plain Python functions of a
+namespace of decision variables that return the matrix of one LMI. The same builder is
+called twice:
+
+1. with cvxpy variables, to pose the problem to the solver;
+2. with the numeric values of the solution (numpy arrays), to recompute each constraint
+   matrix from scratch and take its eigenvalues with LAPACK.
+
+Step 2 does not look at the solver's status or its own residuals: a solution is accepted
+only when every constraint matrix has the required sign with a positive margin. When it
+fails, :class:`~vehicle_observers.core.errors.CertificationError` names the LMI and the amount.
+
+LMI regions (Chilali & Gahinet, IEEE TAC 41(3), 1996), used by Ichalal 2011 eqs. (35)-(36):
+``D = {z : L + M z + M^T conj(z) < 0}`` and ``A`` is D-stable iff there is ``P > 0`` with
+``L (x) P + M (x) (P A) + M^T (x) (A^T P) < 0``. With an observer, ``P A`` is replaced by
+``P A - K C`` (``K = P L``) so the constraint stays linear.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import cvxpy as cp
+import numpy as np
+
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+
+Builder = Callable[["Values"], object]
+
+
+def _is_expr(x) -> bool:
+    return isinstance(x, cp.Expression)
+
+
+def bmat(blocks):
+    """Block matrix from a nested list; cvxpy if any block is a cvxpy expression else numpy."""
+    if any(_is_expr(b) for row in blocks for b in row):
+        return cp.bmat(blocks)
+    return np.block([[np.asarray(b, dtype=float) for b in row] for row in blocks])
+
+
+def kron(a, b):
+    """Kronecker product ``a (x) b`` with constant ``a`` (cvxpy or numpy ``b``)."""
+    if _is_expr(b):
+        return cp.kron(np.asarray(a, dtype=float), b)
+    return np.kron(a, b)
+
+
+def transpose(x):
+    return x.T
+
+
+def symmetric_part(x):
+    return (x + x.T) / 2
+
+
+class Values(dict):
+    """Decision variables by name, also readable as attributes (``V.P`` or ``V["P"]``)."""
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError as exc:
+            raise AttributeError(name) from exc
+
+
+@dataclass
+class ConstraintCheck:
+    """Independent check of one constraint.
+
+    ``margin`` > 0 means satisfied: for ``"neg"`` it is ``-lambda_max``, for ``"pos"``
+    ``lambda_min``, for ``"nonneg"`` the smallest entry (element-wise constraints).
+    ``relative`` divides the margin by the largest absolute eigenvalue / entry.
+    """
+
+    name: str
+    kind: str
+    margin: float
+    relative: float
+    asymmetry: float
+    size: int
+
+    @property
+    def ok(self) -> bool:
+        return self.margin > 0 if self.kind in ("neg", "pos") else self.margin >= 0
+
+
+@dataclass
+class Certificate:
+    checks: list[ConstraintCheck] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def min_margin(self) -> float:
+        lm = [c.margin for c in self.checks if c.kind in ("neg", "pos")]
+        return float(min(lm)) if lm else float("nan")
+
+    @property
+    def min_relative_margin(self) -> float:
+        lm = [c.relative for c in self.checks if c.kind in ("neg", "pos")]
+        return float(min(lm)) if lm else float("nan")
+
+    def worst(self) -> ConstraintCheck:
+        return min(self.checks, key=lambda c: (c.ok, c.relative))
+
+    def table(self) -> str:
+        lines = [f"{'constraint':<24} {'kind':<7} {'margin':>12} {'relative':>10} {'ok':>4}"]
+        for c in self.checks:
+            lines.append(f"{c.name:<24} {c.kind:<7} {c.margin:12.4e} {c.relative:10.2e} "
+                         f"{'yes' if c.ok else 'NO':>4}")
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict:
+        return {c.name: {"kind": c.kind, "margin": c.margin, "relative": c.relative}
+                for c in self.checks}
+
+
+def check_matrix(name: str, M, kind: str) -> ConstraintCheck:
+    """Eigenvalue (or entry-wise) check of one numeric constraint matrix.
+
+    kind: ``"neg"`` (M < 0), ``"pos"`` (M > 0) or ``"nonneg"`` (every entry >= 0).
+    """
+    M = np.atleast_2d(np.asarray(M, dtype=float))
+    if not np.all(np.isfinite(M)):
+        return ConstraintCheck(name, kind, -np.inf, -np.inf, np.nan, M.shape[0])
+    if kind == "nonneg":
+        scale = max(float(np.max(np.abs(M))), 1e-300)
+        m = float(M.min())
+        return ConstraintCheck(name, kind, m, m / scale, 0.0, M.size)
+    S = (M + M.T) / 2
+    asym = float(np.max(np.abs(M - M.T))) / max(float(np.max(np.abs(M))), 1e-300)
+    ev = np.linalg.eigvalsh(S)
+    scale = max(float(np.max(np.abs(ev))), 1e-300)
+    margin = float(-ev[-1]) if kind == "neg" else float(ev[0])
+    return ConstraintCheck(name, kind, margin, margin / scale, asym, M.shape[0])
+
+
+@dataclass
+class LMISolution:
+    """Numeric solution of a certified design."""
+
+    name: str
+    values: Values
+    certificate: Certificate
+    status: str
+    solve_time: float
+    objective: float | None
+
+    def __getitem__(self, key):
+        return self.values[key]
+
+    def summary(self) -> str:
+        obj = "" if self.objective is None else f", objective {self.objective:.6g}"
+        return (f"{self.name}: {self.status}{obj}, solve {self.solve_time*1e3:.0f} ms, "
+                f"min margin {self.certificate.min_margin:.3e} "
+                f"(relative {self.certificate.min_relative_margin:.2e})\n"
+                + self.certificate.table())
+
+
+class LMIDesign:
+    """An LMI feasibility / optimisation problem built from reusable builders.
+
+    Example (Lyapunov, ``A`` Hurwitz)::
+
+        d = LMIDesign("lyap")
+        d.symmetric("P", n)
+        d.positive("P>0", lambda V: V.P)
+        d.negative("AtP+PA<0", lambda V: A.T @ V.P + V.P @ A)
+        sol = d.solve()          # certified, or raises InfeasibleDesign / CertificationError
+
+    ``eps`` is the strictness margin imposed on the solver (``M << -eps I``); the
+    certificate then demands strictly negative eigenvalues of the recomputed matrices.
+    """
+
+    def __init__(self, name: str, eps: float = 1e-7):
+        self.name = name
+        self.eps = eps
+        self._vars: dict[str, cp.Expression] = {}
+        self._raw: dict[str, cp.Variable] = {}
+        self._cons: list[tuple[str, str, Builder]] = []
+        self._extra: list[Callable] = []
+        self._margins: dict[str, float] = {}
+
+    # ---- variables -------------------------------------------------------------------
+    def _add(self, name, expr, raw):
+        if name in self._vars:
+            raise ValueError(f"variable {name!r} defined twice in design {self.name!r}")
+        self._vars[name] = expr
+        self._raw[name] = raw
+        return expr
+
+    def symmetric(self, name: str, n: int):
+        v = cp.Variable((n, n), symmetric=True, name=name)
+        return self._add(name, v, v)
+
+    def diagonal(self, name: str, n: int):
+        """A diagonal ``n x n`` matrix variable (e.g. Ifqir 2017's diagonal P)."""
+        d = cp.Variable(n, name=name)
+        return self._add(name, cp.diag(d), d)
+
+    def matrix(self, name: str, shape: tuple[int, int]):
+        v = cp.Variable(shape, name=name)
+        return self._add(name, v, v)
+
+    def scalar(self, name: str, nonneg: bool = True):
+        v = cp.Variable(nonneg=nonneg, name=name)
+        return self._add(name, v, v)
+
+    def fixed(self, name: str, value):
+        """A constant that builders read like a variable (kept in the solution)."""
+        v = np.asarray(value, dtype=float)
+        self._vars[name] = v
+        self._raw[name] = None
+        return v
+
+    # ---- constraints -------------------------------------------------------------------
+    def negative(self, name: str, builder: Builder):
+        """Require ``builder(V) < 0`` (negative definite)."""
+        self._cons.append((name, "neg", builder))
+
+    def positive(self, name: str, builder: Builder):
+        """Require ``builder(V) > 0`` (positive definite)."""
+        self._cons.append((name, "pos", builder))
+
+    def nonnegative(self, name: str, builder: Builder, margin: float = 0.0):
+        """Require every entry of ``builder(V)`` to be >= 0 (e.g. a Metzler off-diagonal).
+
+        ``margin`` > 0 asks the solver for entries >= margin, so its round-off (~1e-12)
+        cannot fail the certificate, which still checks >= 0 on the recomputed matrix.
+        """
+        self._cons.append((name, "nonneg", builder))
+        self._margins[name] = float(margin)
+
+    def extra(self, fn: Callable):
+        """Additional cvxpy constraints ``fn(V) -> list`` (e.g. gain bounds), not certified."""
+        self._extra.append(fn)
+
+    @property
+    def constraint_names(self) -> list[str]:
+        return [c[0] for c in self._cons]
+
+    # ---- solve & certify ------------------------------------------------------------------
+    def _cvx_constraints(self):
+        V = Values(self._vars)
+        out = []
+        for name, kind, b in self._cons:
+            M = b(V)
+            if kind == "nonneg":
+                out.append(M >= self._margins.get(name, 0.0))
+                continue
+            if not _is_expr(M):
+                continue  # constant matrix: checked in the certificate only
+            S = symmetric_part(M)
+            I = np.eye(S.shape[0])
+            out.append(S << -self.eps * I if kind == "neg" else S >> self.eps * I)
+        for fn in self._extra:
+            out.extend(fn(V))
+        return out
+
+    def certify(self, values: dict) -> Certificate:
+        """Recompute every constraint from numeric ``values`` and check its eigenvalues."""
+        V = Values(values)
+        return Certificate([check_matrix(name, b(V), kind) for name, kind, b in self._cons])
+
+    def solve(self, objective: Callable | None = None, solver: str = "CLARABEL",
+              raise_on_failure: bool = True, **solver_kw) -> LMISolution:
+        """Solve (minimise ``objective(V)`` if given), then certify independently.
+
+        Raises :class:`InfeasibleDesign` if the solver finds no solution and
+        :class:`CertificationError` if its solution fails the eigenvalue certificate
+        (message: which constraint and by how much).
+        """
+        cons = self._cvx_constraints()
+        obj = cp.Minimize(objective(Values(self._vars))) if objective else cp.Minimize(0)
+        prob = cp.Problem(obj, cons)
+        t0 = time.perf_counter()
+        try:
+            prob.solve(solver=solver, **solver_kw)
+        except cp.error.SolverError as exc:
+            raise InfeasibleDesign(f"{self.name}: solver {solver} failed ({exc})",
+                                   status="solver_error") from exc
+        dt = time.perf_counter() - t0
+        status = prob.status
+        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE, cp.UNBOUNDED,
+                      cp.UNBOUNDED_INACCURATE) or any(
+                self._raw[k] is not None and self._raw[k].value is None for k in self._raw):
+            raise InfeasibleDesign(
+                f"{self.name}: the LMIs are infeasible (solver status {status!r}); "
+                f"constraints: {', '.join(self.constraint_names)}", status=status)
+        values = Values()
+        for k, raw in self._raw.items():
+            expr = self._vars[k]
+            values[k] = np.array(expr if raw is None else expr.value, dtype=float)
+        cert = self.certify(values)
+        sol = LMISolution(self.name, values, cert, status, dt,
+                          None if objective is None else float(prob.value))
+        if raise_on_failure and not cert.ok:
+            w = cert.worst()
+            what = {"neg": "largest eigenvalue", "pos": "smallest eigenvalue",
+                    "nonneg": "smallest entry"}[w.kind]
+            need = {"neg": "< 0", "pos": "> 0", "nonneg": ">= 0"}[w.kind]
+            val = -w.margin if w.kind == "neg" else w.margin
+            raise CertificationError(
+                f"{self.name}: constraint {w.name!r} fails the independent check: {what} = "
+                f"{val:.3e} (needs {need}; solver status {status!r})",
+                lmi=w.name, violation=-w.margin, status=status)
+        return sol
+
+
+# ---- LMI regions (Chilali & Gahinet 1996) -----------------------------------------------
+@dataclass(frozen=True)
+class Region:
+    """LMI region ``{z : L + M z + M^T conj(z) < 0}`` with a readable name."""
+
+    name: str
+    L: np.ndarray
+    M: np.ndarray
+
+    def lmi(self, P, PA):
+        """Characteristic matrix ``L (x) P + M (x) PA + M^T (x) PA^T`` (must be < 0)."""
+        return kron(self.L, P) + kron(self.M, PA) + kron(self.M.T, transpose(PA))
+
+    def contains(self, z) -> np.ndarray:
+        """Point-wise membership test of complex numbers ``z`` (strict)."""
+        z = np.atleast_1d(np.asarray(z, dtype=complex))
+        out = np.empty(z.shape, dtype=bool)
+        for k, zk in enumerate(z):
+            F = self.L + self.M * zk + self.M.T * np.conj(zk)
+            out[k] = np.linalg.eigvalsh((F + F.conj().T) / 2)[-1] < 0
+        return out
+
+
+def halfplane(a: float) -> Region:
+    """``Re(z) < -a``: ``2 a P + P A + A^T P < 0`` (Ichalal 2011 eq. (35))."""
+    return Region(f"Re(z) < -{a:g}", np.array([[2.0 * a]]), np.array([[1.0]]))
+
+
+def disk(R: float, center: float = 0.0) -> Region:
+    """``|z - center| < R`` (Ichalal 2011 eq. (36) with center 0):
+    ``[[-R P, q P + P A], [q P + A^T P, -R P]] < 0``."""
+    q = -center
+    return Region(f"|z{'' if center == 0 else f' - {center:g}'}| < {R:g}",
+                  np.array([[-R, q], [q, -R]], dtype=float),
+                  np.array([[0.0, 1.0], [0.0, 0.0]]))
+
+
+def sector(theta: float) -> Region:
+    """Conic sector ``|Im z| < -Re(z) tan(theta)``, i.e. damping ratio > cos(theta)."""
+    s, c = np.sin(theta), np.cos(theta)
+    return Region(f"sector {np.degrees(theta):.1f} deg",
+                  np.zeros((2, 2)), np.array([[s, c], [-c, s]]))

@@ -1,0 +1,1 @@
+"""Vehicle, tyre and Takagi-Sugeno (sector-nonlinearity) models, and vehicle files."""

@@ -1,0 +1,500 @@
+"""Yacine 2015 estimation chain: curvature (11), premise estimate (26)-(28), LMI Theorem 1
+(33), TS observer (31), force recovery (46) and the error bound (34).
+
+Reference: Z. Yacine, D. Ichalal, N. Ait-Oufroukh, S. Mammar, S. Djennoune, "Takagi-Sugeno
+observers: experimental application for vehicle lateral dynamics estimation", IEEE TCST
+23(2):754-761, 2015 (text: ``shared/papers/000_9b02bf71cd4b2069.txt``).
+
+Chain (units SI, arrays (N,) unless stated):
+
+1. ``y_L, psi_L`` (vision) -> third-order Levant differentiators -> ``dy_L, dpsi_L``
+   (:mod:`vehicle_observers.observers.differentiators`).
+2. Road curvature (11): ``rho_hat = (psi_dot - dpsi_L) / v_x`` [1/m].
+3. Premise estimate (26): ``v_ye = dy_L - v_x psi_L - l_s dpsi_L`` [m/s]; premise vector
+   (28) ``s_e = (v_x, psi_dot, psi_L, dy_Le, dpsi_Le, delta_f)`` (N, 6).
+4. TS premises of (24) from ``s_e``: slip angles (4) with ``v_ye`` and the measured yaw rate,
+   secant stiffnesses ``f_f(alpha_f), f_r(alpha_r)`` (16) and ``v_x``; memberships
+   ``h_i(s_e)`` (the product form (22) extended with ``v_x``), premises *clipped* to the
+   sector (an estimate or a true state outside it cannot be represented; the fraction of
+   clipped samples is returned).
+5. Observer (31): ``xhat' = sum_i h_i(s_e) (A_i xhat + B_i delta + L_i (psi_dot - C xhat))``,
+   ``C = (0 1 0 0)``, ``xhat(0) = 0`` (paper), integrated by RK4 with the inputs held over
+   each sample (numba loop).
+6. Forces (46): ``F_f = (m a_r x3 + I_z x4)/(a_f + a_r)``, ``F_r = (m a_f x3 - I_z x4)/(a_f + a_r)``.
+
+LMI Theorem 1 (33), solved with cvxpy + Clarabel through :class:`~vehicle_observers.design.lmi.LMIDesign`:
+for the 8 vertices,
+``[[A_i^T P + P A_i - M_i C - C^T M_i^T + alpha P, P Gamma], [Gamma^T P, -c I_2]] < 0``,
+``P > 0``, ``c > 0``, ``L_i = P^{-1} M_i``, ``Gamma = [0 0 1 0; 0 0 0 1]^T``.
+
+Conditioning (what is done and why): the entries of ``A_i`` range from 1 to ~600 and the
+states have different units (m/s, rad/s, m/s^2, rad/s^2). The LMIs are solved for the scaled
+state ``x~ = S^-1 x`` with ``S = diag(1, 1, 10, 10)`` (the order of magnitude of each state
+on the emulated lap), which is a congruence of (33) with ``diag(S, I_2)``: feasibility and
+``c`` are unchanged, ``P = S^-1 P~ S^-1``, ``L_i = S L~_i``. The homogeneity of (33) in
+``(P, M_i, c)`` is removed by ``P~ >= I``; ``P~ <= p_max I`` (1e3) bounds the eigenvalue
+spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``); and, *added to the
+paper's conditions*, a disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
+``P``) on every vertex ``A_i - L_i C`` keeps the observer poles implementable at the paper's
+1 kHz (RK4 needs ``|lambda| dt`` well below 2.8). The objective minimises ``c`` (it scales
+the transient term of (34)). The solution is certified twice: the builders re-evaluated with
+the numeric ``P~, M~_i, c`` (LMIDesign), and (33) rebuilt independently in the original
+coordinates from ``A_i``, ``P`` and ``L_i`` (:func:`certify_original`).
+
+Bound (34). The printed second branch of (34) is garbled ("sqrt(a2/a1)||e0|| + c/(a a1)
+max||delta||^2 e^{aT} e^{-a t/2}" mixes a norm and a squared norm); it is reconstructed from
+the proof, (40)-(45):
+``||e(t)|| <= sqrt(a2/a1 ||e0||^2 e^{-a t} + c/(a a1) max_{[0,t]} ||delta||^2)`` (t <= T) and
+``||e(t)|| <= sqrt(a2/a1 ||e0||^2 + c/(a a1) max_{[0,T]} ||delta||^2 e^{a T}) e^{-a t/2}``
+(t >= T, where ``delta = 0``), ``a1, a2`` the extreme eigenvalues of ``P``. The first
+(ISS) form holds for all t with the running max; :func:`bound_34` returns both.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+from numba import njit
+
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.data.logs import DriveLog
+from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
+from vehicle_observers.models.lateral import LateralParams, forces_from_transformed, secant_kernel
+from vehicle_observers.models.ts import SectorTS, memberships
+from vehicle_observers.models.vehicle import load_vehicle
+from vehicle_observers.observers.differentiators import levant_differentiator
+
+C_OUT = np.array([[0.0, 1.0, 0.0, 0.0]])                           # y = psi_dot
+GAMMA = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # eq. (29)
+
+#: default state scaling for the LMI (m/s, rad/s, m/s^2, rad/s^2)
+STATE_SCALE = (1.0, 1.0, 10.0, 10.0)
+#: default Levant bounds |f^(4)| for the vision signals (chosen on the noise-free lap)
+L_YL = 50.0     # m/s^4
+L_PSIL = 5.0    # rad/s^4
+#: speed floor [m/s] in the curvature formula (11) (the formula is singular at v_x = 0)
+VX_FLOOR = 0.5
+
+
+def _params(params):
+    """``params`` or, by default, the paper's car: the shipped vehicle file ``yacine2015``
+    (equal to ``papers.yacine2015.params``; a test checks it)."""
+    if params is not None:
+        return params
+    return load_vehicle("yacine2015").params
+
+
+# ================================================================ premise estimation ======
+@dataclass
+class PremiseEstimate:
+    """Outputs of the vision chain, arrays (N,). ``s_e`` is (N, 6) in the order of (28)."""
+
+    dyL: np.ndarray
+    dpsiL: np.ndarray
+    vy: np.ndarray
+    rho: np.ndarray
+    s_e: np.ndarray
+    Zy: np.ndarray = field(repr=False)
+    Zpsi: np.ndarray = field(repr=False)
+
+
+def curvature(yaw_rate, vx, dpsiL, vx_floor: float = VX_FLOOR):
+    """Road curvature, Yacine 2015 eq. (11): ``(psi_dot - dpsi_L) / max(v_x, vx_floor)`` [1/m].
+
+    The formula divides by ``v_x``; below ``vx_floor`` the speed is floored (the estimate
+    there is meaningless and should be masked by the caller).
+    """
+    vx = np.asarray(vx, dtype=float)
+    return (np.asarray(yaw_rate, dtype=float) - np.asarray(dpsiL, dtype=float)) / np.maximum(
+        vx, vx_floor)
+
+
+def vy_from_vision(vx, psiL, dyL, dpsiL, l_s: float):
+    """Lateral velocity from the vision model, eq. (26): ``dy_L - v_x psi_L - l_s dpsi_L``."""
+    return (np.asarray(dyL, dtype=float) - np.asarray(vx, dtype=float) * np.asarray(psiL)
+            - l_s * np.asarray(dpsiL, dtype=float))
+
+
+def estimate_premises(log: DriveLog, L_y: float = L_YL, L_psi: float = L_PSIL, order: int = 3,
+                      params: LateralParams | None = None,
+                      vx_floor: float = VX_FLOOR) -> PremiseEstimate:
+    """Differentiate the vision outputs (HOSMD, order 3 as in the paper), then (11), (26), (28).
+
+    ``L_y`` [m/s^4], ``L_psi`` [rad/s^4]: Levant's bounds on ``|y_L^(4)|, |psi_L^(4)|``.
+    """
+    p = _params(params)
+    log.require("yL_m", "psiL_rad", purpose="premise estimation (26)")
+    dt = log.dt
+    d = np.diff(log.t)
+    if np.max(np.abs(d - dt)) > 1e-6 * dt:
+        k = int(np.argmax(np.abs(d - dt)))
+        raise ValueError(f"{log.source}: the discrete differentiator needs uniform sampling; "
+                         f"step {k} is {d[k]:.6g} s, median {dt:.6g} s")
+    Zy = levant_differentiator(log.yL, dt, order=order, L=L_y)
+    Zp = levant_differentiator(log.psiL, dt, order=order, L=L_psi)
+    dyL, dpsiL = Zy[:, 1], Zp[:, 1]
+    vy = vy_from_vision(log.vx, log.psiL, dyL, dpsiL, p.l_s)
+    rho = curvature(log.yaw_rate, log.vx, dpsiL, vx_floor)
+    s_e = np.column_stack([log.vx, log.yaw_rate, log.psiL, dyL, dpsiL, log.delta])
+    return PremiseEstimate(dyL, dpsiL, vy, rho, s_e, Zy, Zp)
+
+
+def ts_premises(vy, yaw_rate, delta, vx, params: LateralParams | None = None):
+    """TS premises ``z = (f_r(alpha_r), f_f(alpha_f), v_x)`` (N, 3) from slip angles (4)."""
+    p = _params(params)
+    vx = np.asarray(vx, dtype=float)
+    af = np.asarray(delta) - np.asarray(vy) / vx - p.a_f * np.asarray(yaw_rate) / vx
+    ar = -np.asarray(vy) / vx + p.a_r * np.asarray(yaw_rate) / vx
+    return np.column_stack([p.tire_r.secant_stiffness(ar), p.tire_f.secant_stiffness(af), vx])
+
+
+# ================================================================ LMI Theorem 1 ===========
+@dataclass
+class ObserverDesign:
+    """Certified solution of Theorem 1 (33) in original coordinates.
+
+    P (4, 4); L (8, 4, 1) gains ``L_i = P^-1 M_i``; c, alpha scalars; ``alpha1, alpha2`` =
+    extreme eigenvalues of P; ``certificate`` of the scaled LMIs (LMIDesign) and
+    ``certificate_original`` of (33) rebuilt in original coordinates.
+    """
+
+    P: np.ndarray
+    L: np.ndarray
+    c: float
+    alpha: float
+    ts: SectorTS
+    scale: np.ndarray
+    solution: LMISolution
+    certificate_original: Certificate
+    disk_radius: float | None
+    solve_time: float
+
+    @property
+    def alpha1(self) -> float:
+        return float(np.linalg.eigvalsh(self.P)[0])
+
+    @property
+    def alpha2(self) -> float:
+        return float(np.linalg.eigvalsh(self.P)[-1])
+
+    def margins(self) -> dict:
+        """Worst absolute/relative margins of (33) (scaled and original) and of P > 0."""
+        cs, co = self.solution.certificate, self.certificate_original
+        xi_s = [c for c in cs.checks if c.name.startswith("Xi")]
+        xi_o = [c for c in co.checks if c.name.startswith("Xi")]
+        return {"xi_scaled_min_margin": min(c.margin for c in xi_s),
+                "xi_scaled_min_relative": min(c.relative for c in xi_s),
+                "xi_original_min_margin": min(c.margin for c in xi_o),
+                "xi_original_min_relative": min(c.relative for c in xi_o),
+                "P_min_eig": self.alpha1, "P_max_eig": self.alpha2,
+                "P_condition": self.alpha2 / self.alpha1,
+                "max_pole_modulus": float(max(np.abs(np.linalg.eigvals(
+                    self.ts.A[i] - self.L[i] @ C_OUT)).max() for i in range(len(self.L)))),
+                "max_pole_real": float(max(np.linalg.eigvals(
+                    self.ts.A[i] - self.L[i] @ C_OUT).real.max() for i in range(len(self.L))))}
+
+
+def _xi(A, P, M, c, alpha, C=C_OUT, G=GAMMA):
+    """The matrix of (33) (cvxpy or numpy)."""
+    X = A.T @ P + P @ A - M @ C - C.T @ M.T + alpha * P
+    return bmat([[X, P @ G], [G.T @ P, -c * np.eye(G.shape[1])]])
+
+
+def certify_original(ts: SectorTS, P, L, c, alpha) -> Certificate:
+    """Rebuild (33) in original coordinates from ``A_i``, ``P``, ``M_i = P L_i`` and check it."""
+    checks = [check_matrix("P>0", P, "pos"), check_matrix("c>0", np.array([[c]]), "pos")]
+    for i in range(ts.n_rules):
+        checks.append(check_matrix(f"Xi[{i + 1}]", _xi(ts.A[i], P, P @ L[i], c, alpha), "neg"))
+    return Certificate(checks)
+
+
+def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
+                    scale=STATE_SCALE, disk_radius: float | None = 600.0,
+                    p_max: float | None = 1e3, eps: float = 1e-2) -> ObserverDesign:
+    """Solve Theorem 1 (33) for the 8-rule TS model (24) ``ts`` (the paper's bounds:
+    ``papers.yacine2015.ts_model()``).
+
+    See the module docstring for the scaling, normalisation and the added disk region.
+    Raises :class:`InfeasibleDesign` naming the worst vertex and the best achievable largest
+    eigenvalue of (33) (found by :func:`diagnose_infeasible`) when there is no solution, and
+    :class:`CertificationError` if a returned solution fails either certificate.
+    """
+    nr = ts.n_rules
+    S = np.diag(np.asarray(scale, dtype=float))
+    Si = np.linalg.inv(S)
+    As = [Si @ ts.A[i] @ S for i in range(nr)]
+    Cs, Gs = C_OUT @ S, Si @ GAMMA
+    d = LMIDesign(f"Yacine 2015 Theorem 1 (alpha={alpha:g})", eps=eps)
+    d.symmetric("P", 4)
+    for i in range(nr):
+        d.matrix(f"M{i}", (4, 1))
+    d.scalar("c")
+    d.positive("P>=I", lambda V: V.P - np.eye(4) + eps * np.eye(4))
+    if p_max is not None:
+        d.positive("P<=pmax I", lambda V: p_max * np.eye(4) - V.P + eps * np.eye(4))
+    for i in range(nr):
+        d.negative(f"Xi[{i + 1}]", lambda V, i=i: _xi(As[i], V.P, V[f"M{i}"], V.c, alpha, Cs, Gs))
+    if disk_radius is not None:
+        reg = disk(disk_radius)
+        for i in range(nr):
+            d.negative(f"disk[{i + 1}]",
+                       lambda V, i=i: reg.lmi(V.P, V.P @ As[i] - V[f"M{i}"] @ Cs))
+    t0 = time.perf_counter()
+    try:
+        sol = d.solve(objective=lambda V: V.c)
+    except CertificationError:
+        raise
+    except InfeasibleDesign as exc:
+        diag = diagnose_infeasible(ts, alpha, scale, disk_radius, p_max)
+        k = int(diag["worst"].split("[")[1].rstrip("]")) - 1
+        zv = ", ".join(f"{pr.name.split(' ')[0]}={v:g}" for pr, v in zip(ts.premises,
+                                                                         ts.z_vertices[k]))
+        raise InfeasibleDesign(
+            f"{exc}. Diagnosis: the best common P gives largest eigenvalue "
+            f"{diag['t']:+.3e} for {diag['worst']} (vertex {zv}; needs < 0)", lmi=diag["worst"],
+            violation=diag["t"], status=exc.status) from exc
+    solve_time = time.perf_counter() - t0
+    Pt = sol["P"]
+    P = Si @ Pt @ Si
+    L = np.array([S @ np.linalg.solve(Pt, sol[f"M{i}"]) for i in range(nr)])
+    c = float(sol["c"])
+    cert_o = certify_original(ts, P, L, c, alpha)
+    if not cert_o.ok:
+        w = cert_o.worst()
+        raise CertificationError(f"Theorem 1: {w.name} fails in original coordinates "
+                                 f"(margin {w.margin:.3e})", lmi=w.name, violation=-w.margin)
+    return ObserverDesign(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
+                          solve_time)
+
+
+def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
+                        disk_radius: float | None = 600.0, p_max: float | None = 1e3) -> dict:
+    """Relaxed problem ``min t`` s.t. every LMI of the design ``<= t I`` (same P, M_i, c).
+
+    Returns ``{"t": t*, "worst": name}``: ``t* >= 0`` means infeasible; ``worst`` is the LMI
+    (vertex) whose largest eigenvalue attains ``t*`` at the relaxed optimum.
+    """
+    nr = ts.n_rules
+    S = np.diag(np.asarray(scale, dtype=float))
+    Si = np.linalg.inv(S)
+    As = [Si @ ts.A[i] @ S for i in range(nr)]
+    Cs, Gs = C_OUT @ S, Si @ GAMMA
+    P = cp.Variable((4, 4), symmetric=True)
+    M = [cp.Variable((4, 1)) for _ in range(nr)]
+    c = cp.Variable(nonneg=True)
+    t = cp.Variable()
+    cons = [P >> np.eye(4), c <= 1e6]
+    if p_max is not None:
+        cons.append(P << p_max * np.eye(4))
+    mats = {}
+    for i in range(nr):
+        X = _xi(As[i], P, M[i], c, alpha, Cs, Gs)
+        mats[f"Xi[{i + 1}]"] = (X, i, "xi")
+        cons.append((X + X.T) / 2 << t * np.eye(6))
+        if disk_radius is not None:
+            D = disk(disk_radius).lmi(P, P @ As[i] - M[i] @ Cs)
+            mats[f"disk[{i + 1}]"] = (D, i, "disk")
+            cons.append((D + D.T) / 2 << t * np.eye(8))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)   # "solution may be inaccurate": a
+        cp.Problem(cp.Minimize(t), cons).solve(solver="CLARABEL")   # diagnosis only
+    worst, wval = None, -np.inf
+    for name, (X, _, _) in mats.items():
+        v = np.linalg.eigvalsh((X.value + X.value.T) / 2)[-1]
+        if v > wval:
+            worst, wval = name, v
+    return {"t": float(t.value), "worst": worst, "largest_eig": float(wval)}
+
+
+# ================================================================ observer (31) ===========
+@njit(cache=True)
+def _obs_rhs(x, Ab, Bb, Lb, u, y, out):
+    n = x.shape[0]
+    innov = y - x[1]
+    for i in range(n):
+        s = Bb[i] * u + Lb[i] * innov
+        for j in range(n):
+            s += Ab[i, j] * x[j]
+        out[i] = s
+
+
+@njit(cache=True)
+def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
+    N = y.shape[0]
+    nv = Av.shape[0]
+    n = x0.shape[0]
+    X = np.empty((N, n))
+    Z = np.empty((N, 3))
+    clipped = np.zeros((N, 3), dtype=np.bool_)
+    x = x0.copy()
+    h = np.empty(nv)
+    z = np.empty(3)
+    Ab = np.empty((n, n))
+    Bb = np.empty(n)
+    Lb = np.empty(n)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    af, ar = P[2], P[3]
+    hs = dt / substeps
+    for k in range(N):
+        X[k] = x
+        v = vx[k]
+        r = y[k]
+        a_f = u[k] - vyp[k] / v - af * r / v                       # slip (4) with v_ye
+        a_r = -vyp[k] / v + ar * r / v
+        z[0] = secant_kernel(a_r, P[11], P[12], P[13], P[14])
+        z[1] = secant_kernel(a_f, P[7], P[8], P[9], P[10])
+        z[2] = v
+        for j in range(3):
+            if z[j] < zmin[j]:
+                z[j] = zmin[j]
+                clipped[k, j] = True
+            elif z[j] > zmax[j]:
+                z[j] = zmax[j]
+                clipped[k, j] = True
+            Z[k, j] = z[j]
+        # memberships (ts.memberships ordering: bit 0 -> zmax)
+        for i in range(nv):
+            w = 1.0
+            for j in range(3):
+                bit = (i >> (2 - j)) & 1
+                w0 = (z[j] - zmin[j]) / (zmax[j] - zmin[j])
+                w *= w0 if bit == 0 else 1.0 - w0
+            h[i] = w
+        for a in range(n):
+            Bb[a] = 0.0
+            Lb[a] = 0.0
+            for b in range(n):
+                Ab[a, b] = 0.0
+        for i in range(nv):
+            for a in range(n):
+                Bb[a] += h[i] * Bv[i, a, 0]
+                Lb[a] += h[i] * Lv[i, a, 0]
+                for b in range(n):
+                    Ab[a, b] += h[i] * Av[i, a, b]
+        for _ in range(substeps):
+            _obs_rhs(x, Ab, Bb, Lb, u[k], r, k1)
+            for i in range(n):
+                tmp[i] = x[i] + 0.5 * hs * k1[i]
+            _obs_rhs(tmp, Ab, Bb, Lb, u[k], r, k2)
+            for i in range(n):
+                tmp[i] = x[i] + 0.5 * hs * k2[i]
+            _obs_rhs(tmp, Ab, Bb, Lb, u[k], r, k3)
+            for i in range(n):
+                tmp[i] = x[i] + hs * k3[i]
+            _obs_rhs(tmp, Ab, Bb, Lb, u[k], r, k4)
+            for i in range(n):
+                x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    return X, Z, clipped
+
+
+@dataclass
+class ObserverRun:
+    """Observer output: ``x`` (N, 4) transformed state (12); ``vy, Ff, Fr`` (N,) by (46);
+    ``z`` (N, 3) premises ``(f_r, f_f, v_x)`` after clipping to the sector; ``clipped``
+    (N, 3) bool, which premise was clipped at which sample; ``premises`` the vision chain."""
+
+    x: np.ndarray
+    vy: np.ndarray
+    Ff: np.ndarray
+    Fr: np.ndarray
+    z: np.ndarray
+    clipped: np.ndarray
+    premises: PremiseEstimate | None
+
+
+def run_observer(log: DriveLog, design: ObserverDesign, premises: PremiseEstimate | None = None,
+                 vy_premise=None, x0=None, params: LateralParams | None = None,
+                 substeps: int = 1) -> ObserverRun:
+    """TS observer (31) on a log; premise ``v_y`` from (26) unless ``vy_premise`` is given.
+
+    ``x0`` (4,) initial estimate (default 0, as in the paper). The inputs (yaw rate,
+    steering, speed, premise) are held over each sample; RK4 with ``substeps`` steps.
+    """
+    p = _params(params)
+    if premises is None and vy_premise is None:
+        premises = estimate_premises(log, params=p)
+    vyp = np.ascontiguousarray(premises.vy if vy_premise is None else vy_premise, dtype=float)
+    if np.any(log.vx <= 0):
+        k = int(np.argmax(log.vx <= 0))
+        raise ValueError(f"{log.source}: column 'vx_mps' must be > 0 (slip (4) divides by it); "
+                         f"row {k} has {log.vx[k]}")
+    x0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float)
+    ts = design.ts
+    X, Z, clipped = _observer(np.ascontiguousarray(log.yaw_rate, dtype=float),
+                              np.ascontiguousarray(log.delta, dtype=float),
+                              np.ascontiguousarray(log.vx, dtype=float), vyp, log.dt,
+                              p.as_array(), ts.A, ts.B, np.ascontiguousarray(design.L),
+                              ts.zmin, ts.zmax, x0, int(substeps))
+    Ff, Fr = forces_from_transformed(X[:, 2], X[:, 3], p)
+    return ObserverRun(X, X[:, 0].copy(), Ff, Fr, Z, clipped, premises)
+
+
+# ================================================================ bound (34) ==============
+def premise_mismatch(ts: SectorTS, x_true, u, z_true, z_est):
+    """``delta(t)`` of (30): ``sum_i (h_i(z) - h_i(z_e)) (A_i x + B_i u)`` -> (N, 4).
+
+    Rows 1-2 vanish identically (they depend on ``v_x`` only, which both premise sets share);
+    ``Gamma delta`` uses rows 3-4, returned as the (N, 2) second output.
+    """
+    h = memberships(np.clip(z_true, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
+    he = memberships(np.clip(z_est, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
+    x_true = np.atleast_2d(x_true)
+    u = np.asarray(u, dtype=float).reshape(len(x_true), 1)
+    f = np.einsum("ikl,nl->nik", ts.A, x_true) + np.einsum("ikl,nl->nik", ts.B, u)
+    full = np.einsum("ni,nik->nk", h - he, f)
+    return full, full[:, 2:]
+
+
+def bound_34(t, e0_norm: float, delta_norm, T: float, design: ObserverDesign) -> dict:
+    """Right-hand sides of (34) as reconstructed from (40)-(45) (module docstring).
+
+    ``delta_norm`` (N,) = ``||delta(t_k)||``. Returns ``iss`` (all t, running max of delta),
+    ``paper`` ((34): first branch on [0, T], (45) after T with max over [0, T]) (N,).
+    """
+    t = np.asarray(t, dtype=float) - float(np.asarray(t)[0])
+    a, c, a1, a2 = design.alpha, design.c, design.alpha1, design.alpha2
+    dn = np.asarray(delta_norm, dtype=float)
+    run = np.maximum.accumulate(dn**2)
+    iss = np.sqrt(a2 / a1 * e0_norm**2 * np.exp(-a * t) + c / (a * a1) * run)
+    dT = float(run[np.searchsorted(t, T, side="right") - 1]) if T > 0 else 0.0
+    after = np.sqrt(a2 / a1 * e0_norm**2 + c / (a * a1) * dT * np.exp(a * T)) * np.exp(
+        -a * t / 2)
+    paper = np.where(t <= T, iss, after)
+    return {"iss": iss, "paper": paper, "delta_max_T": float(np.sqrt(dT))}
+
+
+def convergence_time(t, err, band: float, mode: str = "last", hold: float = 1.0) -> float:
+    """Differentiator convergence time ``T`` from an error signal (N,) [s from ``t[0]``].
+
+    ``mode="last"``: the instant after the last sample with ``|err| > band`` (so
+    ``|err| <= band`` on ``[T, end]``; this is the ``T`` of (34)). ``mode="first"``: the first
+    instant after which ``|err| <= band`` holds for at least ``hold`` s (the initial
+    transient only; later re-convergences, e.g. at clothoid junctions where ``psi_L^(4)`` is
+    unbounded, are not counted). Returns ``nan`` if never converged.
+    """
+    t = np.asarray(t, dtype=float)
+    t = t - t[0]
+    bad = np.abs(np.asarray(err, dtype=float)) > band
+    if mode == "last":
+        idx = np.flatnonzero(bad)
+        if len(idx) == 0:
+            return 0.0
+        return float(t[idx[-1] + 1]) if idx[-1] + 1 < len(t) else float("nan")
+    if mode != "first":
+        raise ValueError(f"mode must be 'last' or 'first', got {mode!r}")
+    n_hold = max(1, int(round(hold / np.median(np.diff(t)))))
+    good = ~bad
+    run = 0
+    for k in range(len(good)):
+        run = run + 1 if good[k] else 0
+        if run >= n_hold:
+            return float(t[k - n_hold + 1])
+    return float("nan")

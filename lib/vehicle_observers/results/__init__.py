@@ -1,0 +1,1 @@
+"""Reporting: figures, metrics.json and claims, plotting helpers, the papermill pipeline."""

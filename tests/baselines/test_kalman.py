@@ -1,0 +1,166 @@
+"""EKF / UKF / RTS baselines: implementation cross-checks, SPD covariance, tuning, accuracy."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from vehicle_observers.baselines import kalman as K
+from vehicle_observers.core.metrics import rmse
+from vehicle_observers.data.logs import DriveLog, load_revs
+from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
+from vehicle_observers.models.lateral import LateralParams
+from vehicle_observers.models.tires import LinearTire
+from vehicle_observers.papers import revs250lm as R
+from vehicle_observers.papers import yacine2015 as Y
+
+TUN = K.KalmanTuning(q_vy=0.27, q_r=2e-3, q_b=0.4, R_r=1.6e-5, R_ay=1.3)
+
+
+@pytest.fixture(scope="module")
+def revs():
+    return load_revs()
+
+
+@pytest.fixture(scope="module")
+def satory():
+    return emulated_satory(seed=0, quick=True)
+
+
+def test_rk4_jacobian_matches_finite_differences():
+    x = np.array([0.4, 0.3, 0.1])
+    for p, delta, vx in ((Y.params, 0.08, 12.0), (R.params, 0.05, 30.0)):
+        xn, F = K.rk4_step(x, delta, vx, 0.01, p)
+        Fd = np.empty((3, 3))
+        for j in range(3):
+            e = np.zeros(3)
+            e[j] = 1e-6
+            Fd[:, j] = (K.rk4_step(x + e, delta, vx, 0.01, p)[0]
+                        - K.rk4_step(x - e, delta, vx, 0.01, p)[0]) / 2e-6
+        assert np.abs(F - Fd).max() < 1e-7
+        # one RK4 step agrees with the model's own right-hand side to O(h^2)
+        f = np.zeros(3)
+        A = np.zeros((3, 3))
+        K._rhs(x, delta, vx, p.as_array(), f, A)
+        assert np.allclose((xn - x) / 0.01, f, rtol=0.05, atol=0.05)
+
+
+def test_measurement_model_is_lateral_acceleration():
+    x = np.array([0.3, 0.2, 0.05])
+    p = R.params
+    y, H = K.measure(x, 0.04, 25.0, p)
+    af = 0.04 - (0.3 + p.a_f * 0.2) / 25.0
+    ar = -(0.3 - p.a_r * 0.2) / 25.0
+    assert y[0] == 0.2
+    assert y[1] == pytest.approx((p.tire_f.force(af) + p.tire_r.force(ar)) / p.m + 0.05,
+                                 rel=1e-12)
+    Hd = np.array([(K.measure(x + e, 0.04, 25.0, p)[0] - K.measure(x - e, 0.04, 25.0, p)[0])
+                   / 2e-6 for e in np.eye(3) * 1e-6]).T
+    assert np.abs(H - Hd).max() < 1e-6
+
+
+@pytest.mark.parametrize("use_ay", [True, False])
+def test_numba_ekf_equals_filterpy_ekf(revs, use_ay):
+    seg = revs.segment(300.0, 310.0)
+    a = K.ekf(seg, R.params, TUN, use_ay=use_ay)
+    b = K.ekf_filterpy(seg, R.params, TUN, use_ay=use_ay)
+    assert np.abs(a.X - b.X).max() < 1e-9
+    assert np.abs(a.P[:, 0, 0] - b.P[:, 0, 0]).max() < 1e-12
+
+
+def test_rts_equals_filterpy_smoother_on_linear_model():
+    """With linear tyres and no steering the model is linear: our extended RTS must equal
+    filterpy's KalmanFilter.rts_smoother fed with the same filter pass."""
+    from filterpy.kalman import KalmanFilter
+
+    p = LateralParams(m=1500, I_z=2454, a_f=1.1, a_r=1.44, tire_f=LinearTire(4e4),
+                      tire_r=LinearTire(4.5e4))
+    rng = np.random.default_rng(3)
+    N = 400
+    t = np.arange(N) * 0.01
+    vx = np.full(N, 15.0)
+    # free response from vy = 0.5 m/s, r = 0.2 rad/s plus measurement noise
+    x = np.array([0.5, 0.2, 0.0])
+    X = np.empty((N, 3))
+    for k in range(N):
+        X[k] = x
+        x = K.rk4_step(x, 0.0, 15.0, 0.01, p)[0]
+    ay_true = np.array([K.measure(X[k], 0.0, 15.0, p)[0][1] for k in range(N)])
+    log = DriveLog(t=t, vx=vx, delta=np.zeros(N), yaw_rate=X[:, 1] + 0.003 * rng.standard_normal(N),
+                   ay=ay_true + 0.1 * rng.standard_normal(N), vy=X[:, 0])
+    tun = K.KalmanTuning(q_vy=0.01, q_r=1e-3, q_b=1e-3, R_r=9e-6, R_ay=0.01)
+    f = K.ekf(log, p, tun, store=True)
+    s = K.rts(log, p, tun)
+    Fs = f.info["Fs"].copy()
+    Fs[0] = Fs[1]  # filterpy indexes F[k] as k -> k+1 and never uses F[N-1]
+    Fp = np.concatenate([Fs[1:], Fs[-1:]])
+    Qs = np.array([np.diag([0.01, 1e-3, 1e-3]) * 0.01] * N)
+    xs, Ps, _, _ = KalmanFilter(dim_x=3, dim_z=2).rts_smoother(f.X, f.P, Fs=Fp, Qs=Qs)
+    assert np.abs(s.X - xs).max() < 1e-10
+    assert np.abs(s.P - Ps).max() < 1e-12
+    # and the smoother beats the filter on the true-model data
+    assert rmse(s.vy, X[:, 0]) < rmse(f.vy, X[:, 0])
+
+
+def test_ukf_covariance_stays_spd_and_tracks(revs):
+    seg = revs.segment(400.0, 415.0)
+    u = K.ukf_filterpy(seg, R.params, TUN)
+    Ps = u.P
+    assert np.abs(Ps - np.transpose(Ps, (0, 2, 1))).max() == 0.0
+    assert np.linalg.eigvalsh(Ps).min() > 0
+    e = K.ekf(seg, R.params, TUN)
+    # same model and noise: UKF and EKF estimates agree to a few cm/s on this segment
+    assert rmse(u.vy, e.vy) < 0.05
+    assert rmse(u.vy, seg.vy) < 0.4
+
+
+def test_nearest_spd_repairs_indefinite_matrix():
+    P = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1e-3]])  # eigenvalue -1
+    Q, fixed = K.nearest_spd(P)
+    assert fixed
+    np.linalg.cholesky(Q)
+    assert np.allclose(Q, Q.T)
+    Q2, fixed2 = K.nearest_spd(np.eye(3))
+    assert not fixed2 and np.array_equal(Q2, np.eye(3))
+
+
+def test_tuning_ignores_reference_columns(satory):
+    seg = satory.segment(10.0, 18.0)
+    a = K.tune(seg, Y.params, maxiter=60)
+    garbage = replace(seg, vy=np.full(len(seg), 123.0), Ff=None, Fr=None)
+    b = K.tune(garbage, Y.params, maxiter=60)
+    assert a.theta().tolist() == b.theta().tolist()
+
+
+@pytest.mark.slow
+def test_ml_tuning_recovers_gyro_noise_and_filter_is_accurate(satory):
+    """On the emulated run (truth = the same model family plus relaxation), the ML estimate
+    of the gyro variance is within 15 % of the simulated 0.002^2 (rad/s)^2, and the tuned
+    EKF's vy error is far below the vy signal."""
+    tun = K.tune(satory, Y.params, window_s=25.0)
+    assert tun.R_r == pytest.approx(NOISE_STD["yaw_rate"] ** 2, rel=0.15)
+    res = K.ekf(satory, Y.params, tun)
+    m = satory.t > 1.0
+    e = rmse(res.vy, satory.vy, m)
+    assert e < 0.01 < 0.1 * np.sqrt(np.mean(satory.vy[m] ** 2)) + 0.01
+    assert rmse(res.Ff, satory.Ff, m) < 0.02 * np.abs(satory.Ff).max()
+
+
+@pytest.mark.slow
+def test_real_log_target_with_first_120s_tuning(revs):
+    """Headline: ML tuning on the measured channels of the first 120 s only, then the causal
+    EKF over the whole run beats the issue's 0.24 m/s target (vy = 0 gives 0.743)."""
+    tun = K.tune(revs, R.params, window_s=120.0)
+    res = K.ekf(revs, R.params, tun)
+    e = rmse(res.vy, revs.vy)
+    assert e <= 0.24
+    assert rmse(np.zeros(len(revs)), revs.vy) == pytest.approx(0.743, abs=0.001)
+
+
+def test_inv3_matches_numpy_and_handles_singular():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        M = rng.standard_normal((3, 3))
+        A = M @ M.T + 0.01 * np.eye(3)
+        assert np.allclose(K._inv3(A), np.linalg.inv(A), rtol=1e-9, atol=1e-9)
+    S = np.diag([1.0, 2.0, 0.0])  # inert bias state with zero variance
+    assert np.allclose(K._inv3(S), np.linalg.pinv(S))

@@ -1,0 +1,47 @@
+"""Benchmark plumbing: rows, ratios, files (fast observers only; the Kalman rows are covered by
+tests/test_notebook_07.py)."""
+
+import json
+
+import numpy as np
+import pytest
+from vehicle_observers.bench import suite as B
+from vehicle_observers.cli.registry import score
+
+
+@pytest.fixture(scope="module")
+def res():
+    return B.run(quick=True, observers=["interval-ifqir2017", "ts-yacine2015"])
+
+
+def test_rows_cover_applicable_observers(res):
+    got = {(r["dataset"], r["observer"]) for r in res["rows"]}
+    for d in ("satory_n1", "satory_n3", "swd"):
+        assert {(d, "interval-ifqir2017"), (d, "ts-yacine2015")} <= got
+    # the real log has no vision channels: the TS observer is not applicable there
+    assert ("revs", "interval-ifqir2017") in got and ("revs", "ts-yacine2015") not in got
+    assert not res["errors"]
+    for r in res["rows"]:
+        est = res["estimates"][(r["dataset"], r["observer"])]
+        log, mask = res["logs"][r["dataset"]], res["masks"][r["dataset"]]
+        assert r["rmse_vy"] == score(est, log, mask)["rmse_vy"]
+        assert r["realtime_factor"] == pytest.approx(log.duration / est.seconds)
+
+
+def test_outputs_and_metrics_file_list(res, tmp_path):
+    paths = B.write_outputs(res, tmp_path, topics=[{"topic": "x", "component": "y", "steps": 1,
+                                                     "seconds": 1.0, "us_per_step": 1e6}])
+    names = {p.name for p in paths}
+    assert {"benchmark.csv", "benchmark.md", "metrics.json", "rmse_cost.png",
+            "speed_topics.csv", "losses_revs.csv", "revs_vy.png"} <= names
+    doc = json.loads((tmp_path / "metrics.json").read_text())
+    assert set(doc["files"]) == {p.name for p in tmp_path.iterdir()}
+    assert doc["quick"] is True
+    md = (tmp_path / "benchmark.md").read_text()
+    assert "| revs | interval-ifqir2017 |" in md
+    # losses table: shares of each factor's bins sum to 1
+    loss = B.revs_losses(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
+                                               if d == "revs"})
+    for f in {r["factor"] for r in loss}:
+        assert sum(r["share"] for r in loss if r["factor"] == f) == pytest.approx(1.0, abs=1e-3)
+    assert np.isfinite([r["interval-ifqir2017"] for r in loss]).all()

@@ -1,0 +1,220 @@
+"""End-to-end tests of ``python -m vehicle_observers`` on a segment of the shipped real log,
+including every error path (one-line message, non-zero exit, no traceback, no output)."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from vehicle_observers.baselines import kalman as K
+from vehicle_observers.cli.main import EXIT_INPUT, main
+from vehicle_observers.core.metrics import rmse
+from vehicle_observers.data.logs import load_log, load_revs
+from vehicle_observers.models.vehicle import builtin_vehicles, load_vehicle
+
+KALMAN_TABLE = """
+[kalman]
+q_vy = 0.27
+q_r = 0.002
+q_b = 0.4
+R_r = 1.6e-5
+R_ay = 1.3
+"""
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    seg = load_revs().segment(300.0, 330.0)
+    log = d / "revs_seg.csv"
+    seg.to_csv(log)
+    base = builtin_vehicles()["revs250lm"].read_text()
+    veh = d / "revs_fixed.toml"
+    veh.write_text(base + KALMAN_TABLE)
+    return {"dir": d, "log": log, "veh": veh, "base": base, "seg": seg}
+
+
+def run_cli(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code, err, *needles):
+    assert code == EXIT_INPUT
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("error: ") and "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+
+
+def test_observers_lists_everything_with_needs(capsys):
+    code, out, _ = run_cli(capsys, "observers")
+    assert code == 0
+    for name in ("ekf", "ekf-filterpy", "ukf", "rts", "interval-ifqir2017", "ts-yacine2015"):
+        assert f"\n{name} " in "\n" + out
+    assert "yL_m, psiL_rad" in out          # the TS observer needs vision
+    assert "OFFLINE" in out                 # the smoother is flagged
+
+
+def test_estimate_ekf_matches_library_and_prints_metrics(capsys, files):
+    out_csv = files["dir"] / "est_ekf.csv"
+    code, out, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                             "--observer", "ekf", "--out", out_csv, "--no-progress")
+    assert code == 0, err
+    est = load_log(out_csv, required=("t_s", "vy_mps", "yaw_rate_radps"), min_vx=None)
+    seg = load_log(files["log"])
+    veh = load_vehicle(files["veh"])
+    ref = K.ekf(seg, veh.params, veh.kalman)
+    assert np.allclose(est.t, seg.t)
+    assert np.abs(est.vy - ref.vy).max() < 1e-8           # %.10g round trip
+    assert {"beta_rad", "vy_std_mps"} <= set(est.extra)
+    assert est.Ff is not None and est.Fr is not None
+    e = rmse(ref.vy, seg.vy)
+    assert f"vy    RMSE {e:.4g} m/s" in out
+    assert "real-time factor" in out
+
+
+def test_estimate_ml_tuning_and_interval_observer_subprocess(files):
+    """Through the real entry point: ML tuning (no [kalman] table) and an interval observer."""
+    out1 = files["dir"] / "est_rts.csv"
+    p = subprocess.run([sys.executable, "-m", "vehicle_observers", "estimate", str(files["log"]),
+                        "--vehicle", "revs250lm", "--observer", "rts", "--out", str(out1),
+                        "--tune-window", "10"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "OFFLINE" in p.stdout and "vy    RMSE" in p.stdout
+    out2 = files["dir"] / "est_iv.csv"
+    p = subprocess.run([sys.executable, "-m", "vehicle_observers", "estimate", str(files["log"]),
+                        "--vehicle", "revs250lm", "--observer", "interval-ifqir2017",
+                        "--out", str(out2)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    est = load_log(out2, required=("t_s", "vy_lo_mps", "vy_hi_mps"), min_vx=None)
+    lo, hi = est.extra["vy_lo_mps"], est.extra["vy_hi_mps"]
+    assert np.all(lo <= hi)
+    assert "enclosure" in p.stdout
+
+
+def test_error_unknown_observer(capsys, files):
+    out = files["dir"] / "never.csv"
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                           "--observer", "kalman9000", "--out", out)
+    assert_one_line_error(code, err, "unknown observer 'kalman9000'", "ekf")
+    assert not out.exists()
+
+
+def test_error_missing_column_named(capsys, files):
+    seg = files["seg"]
+    cols = seg.columns()
+    cols.pop("yaw_rate_radps")
+    bad = files["dir"] / "no_yaw.csv"
+    from vehicle_observers.data.logs import write_csv
+
+    write_csv(bad, cols)
+    out = files["dir"] / "never.csv"
+    code, _, err = run_cli(capsys, "estimate", bad, "--vehicle", files["veh"], "--observer",
+                           "ekf", "--out", out)
+    assert_one_line_error(code, err, "'yaw_rate_radps'")
+    # an observer-specific column: the TS observer needs vision, which the real log lacks
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                           "--observer", "ts-yacine2015", "--out", out)
+    assert_one_line_error(code, err, "missing column 'yL_m'", "ts-yacine2015")
+    assert not out.exists()
+
+
+def test_error_bad_values_in_log(capsys, files):
+    text = files["log"].read_text().splitlines()
+    header = text[0].split(",")
+    row = text[5].split(",")
+    row[header.index("vx_mps")] = "nan"
+    bad = files["dir"] / "nan.csv"
+    bad.write_text("\n".join(text[:5] + [",".join(row)] + text[6:]) + "\n")
+    out = files["dir"] / "never.csv"
+    code, _, err = run_cli(capsys, "estimate", bad, "--vehicle", files["veh"], "--observer",
+                           "ekf", "--out", out)
+    assert_one_line_error(code, err, "'vx_mps'", "row 4")
+    code, _, err = run_cli(capsys, "estimate", files["dir"] / "absent.csv", "--vehicle",
+                           files["veh"], "--observer", "ekf", "--out", out)
+    assert_one_line_error(code, err, "no such file")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("edit, needle", [
+    (lambda s: s.replace("m = 982.0\n", ""), "missing key 'm'"),
+    (lambda s: s.replace("D = 5583.369675", "D = -3.0"), "key 'tire_front.D'"),
+    (lambda s: s.replace('model = "pacejka"', 'model = "magic"', 1), "key 'tire_front.model'"),
+    (lambda s: s.replace("I_z = ", "I_z = \"big\" #"), "key 'I_z'"),
+    (lambda s: s + "\n[kalman]\nq_vy = 1\n", "missing key 'kalman.q_r'"),
+    (lambda s: s.replace("vx_max = 62.0", "vx_max = 5.0"), "'uncertainty.vx_min'"),
+    (lambda s: s.replace("[tire_rear]", "[tire_rear"), "not valid TOML"),
+])
+def test_error_vehicle_file_names_the_key(capsys, files, edit, needle):
+    veh = files["dir"] / "bad_vehicle.toml"
+    veh.write_text(edit(files["base"]))
+    out = files["dir"] / "never.csv"
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", veh, "--observer",
+                           "ekf", "--out", out)
+    assert_one_line_error(code, err, "bad_vehicle.toml", needle)
+    assert not out.exists()
+
+
+def test_error_interval_needs_uncertainty_and_infeasible_design(capsys, files):
+    out = files["dir"] / "never.csv"
+    veh = files["dir"] / "no_box.toml"
+    base = files["base"]
+    veh.write_text(base[:base.index("[uncertainty]")])
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", veh, "--observer",
+                           "interval-ifqir2017", "--out", out)
+    assert_one_line_error(code, err, "'uncertainty.stiffness_rel'")
+    # +-50 % stiffness: no Metzler gain exists (needs c_r l_r > c_f l_f on the whole box)
+    veh2 = files["dir"] / "wide_box.toml"
+    veh2.write_text(base.replace("stiffness_rel = 0.10", "stiffness_rel = 0.5"))
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", veh2, "--observer",
+                           "interval-ifqir2017", "--out", out)
+    assert_one_line_error(code, err, "design infeasible", "Metzler condition (20)")
+    assert not out.exists()
+
+
+def test_error_output_path_and_existing_file_untouched(capsys, files):
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                           "--observer", "ekf", "--out", files["dir"] / "nodir" / "e.csv")
+    assert_one_line_error(code, err, "does not exist")
+    keep = files["dir"] / "keep.csv"
+    keep.write_text("precious\n")
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                           "--observer", "nope", "--out", keep)
+    assert code == EXIT_INPUT
+    assert keep.read_text() == "precious\n"
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--vehicle", files["veh"],
+                           "--observer", "ekf", "--out", files["dir"])
+    assert_one_line_error(code, err, "is a directory")
+
+
+def test_error_nonpositive_speed_and_usage(capsys, files):
+    text = files["log"].read_text().splitlines()
+    header = text[0].split(",")
+    row = text[3].split(",")
+    row[header.index("vx_mps")] = "0"
+    bad = files["dir"] / "stop.csv"
+    bad.write_text("\n".join(text[:3] + [",".join(row)] + text[4:]) + "\n")
+    code, _, err = run_cli(capsys, "estimate", bad, "--vehicle", files["veh"], "--observer",
+                           "ekf", "--out", files["dir"] / "never.csv")
+    assert_one_line_error(code, err, "'vx_mps' must be > 0", "row 2")
+    code, _, err = run_cli(capsys, "estimate", files["log"], "--observer", "ekf")
+    assert code == EXIT_INPUT and "Traceback" not in err and "--vehicle" in err
+
+
+def test_tune_prints_a_kalman_table_that_the_loader_accepts(capsys, files):
+    code, out, err = run_cli(capsys, "tune", files["log"], "--vehicle", "revs250lm",
+                             "--tune-window", "10")
+    assert code == 0, err
+    assert "[kalman]" in out and "ML on measured channels" in out
+    veh = files["dir"] / "tuned.toml"
+    veh.write_text(files["base"] + "\n" + out)
+    v = load_vehicle(veh)
+    seg = load_log(files["log"]).segment(300.0, 310.0)
+    ref = K.tune(seg, load_vehicle("revs250lm").params)
+    # the printed table (6 significant digits) is the library's tuning of that window
+    assert np.allclose(v.kalman.theta(), ref.theta(), rtol=1e-5)
+    code, _, err = run_cli(capsys, "tune", files["log"], "--vehicle", "nonexistent.toml")
+    assert_one_line_error(code, err, "nonexistent.toml")

@@ -1,0 +1,104 @@
+import gzip
+
+import numpy as np
+import pytest
+from vehicle_observers.core.errors import LogFormatError
+from vehicle_observers.data.logs import REQUIRED, despike, load_log, load_revs, write_csv
+
+GOOD = "t_s,vx_mps,delta_roadwheel_rad,yaw_rate_radps,ay_mps2\n" + "\n".join(
+    f"{0.01 * k:.2f},20.0,0.01,0.02,1.0" for k in range(5)) + "\n"
+
+
+def write(tmp_path, text, name="log.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_revs_log_loads_with_schema():
+    log = load_revs()
+    assert len(log) == 55001
+    assert log.t[0] == pytest.approx(149.99) and log.t[-1] == pytest.approx(699.99)
+    assert log.dt == pytest.approx(0.01, abs=1e-9)
+    assert 16.4 < log.vx.min() < 16.5 and 61.2 < log.vx.max() < 61.3
+    assert log.vy is not None and log.ay is not None and "ay_filt_mps2" in log.extra
+    # beta is exactly atan2(vy, vx) (PROVENANCE)
+    np.testing.assert_allclose(log.extra["beta_rad"], np.arctan2(log.vy, log.vx), atol=1e-6)
+
+
+def test_roundtrip_and_optional_columns(tmp_path):
+    log = load_log(write(tmp_path, GOOD))
+    assert log.ay is not None and log.vy is None and log.has("ay_mps2") and not log.has("vy_mps")
+    out = tmp_path / "out.csv"
+    log.to_csv(out)
+    back = load_log(out)
+    np.testing.assert_allclose(back.t, log.t)
+    with pytest.raises(LogFormatError, match="missing column 'vy_mps' \\(EKF needs it\\)"):
+        log.require("vy_mps", purpose="EKF")
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda s: s.replace("yaw_rate_radps", "yawrate"), "missing column 'yaw_rate_radps'"),
+    (lambda s: s.replace("0.02,1.0\n0.03", "nan,1.0\n0.03", 1),
+     "column 'yaw_rate_radps' has 1 NaN/inf value\\(s\\), first at row 2 \\(line 4\\)"),
+    (lambda s: s.replace("0.03,20.0", "0.02,20.0"), "duplicate time at row 3 \\(line 5\\): 0.02 -> 0.02"),
+    (lambda s: s.replace("0.03,20.0", "0.00,20.0"), "decreasing time at row 3"),
+    (lambda s: s.replace("0.04,20.0", "0.04,0.0"), "'vx_mps' must be > 0 m/s .* row 4 \\(line 6\\)"),
+    (lambda s: s.replace("0.02,20.0", "0.02,fast"), "column 'vx_mps', row 2 \\(line 4\\): 'fast'"),
+    (lambda s: s.replace("0.01,20.0,0.01,0.02,1.0", "0.01,20.0,0.01"), "row 1 \\(line 3\\) has 3 fields"),
+    (lambda s: s.split("\n")[0] + "\n", "no data rows"),
+    (lambda s: "", "empty file"),
+    (lambda s: s.replace("ay_mps2", "vx_mps"), "duplicate column name"),
+])
+def test_bad_input_clear_errors(tmp_path, mutate, message):
+    p = write(tmp_path, mutate(GOOD))
+    before = p.read_bytes()
+    with pytest.raises(LogFormatError, match=message):
+        load_log(p)
+    assert p.read_bytes() == before  # loses nothing
+
+
+def test_missing_file_and_gzip(tmp_path):
+    with pytest.raises(LogFormatError, match="no such file"):
+        load_log(tmp_path / "nope.csv")
+    gz = tmp_path / "log.csv.gz"
+    with gzip.open(gz, "wt") as fh:
+        fh.write(GOOD)
+    assert len(load_log(gz)) == 5
+    bad = tmp_path / "bad.csv.gz"
+    bad.write_bytes(b"not gzip")
+    with pytest.raises(LogFormatError, match="cannot read"):
+        load_log(bad)
+
+
+def test_vx_check_can_be_disabled(tmp_path):
+    p = write(tmp_path, GOOD.replace("0.04,20.0", "0.04,0.0"))
+    assert load_log(p, min_vx=None).vx[4] == 0.0
+
+
+def test_segment_and_required():
+    log = load_revs().segment(200.0, 201.0)
+    assert len(log) == 101 and log.t[0] >= 200.0 and log.t[-1] <= 201.0
+    assert set(REQUIRED) <= set(log.columns())
+    with pytest.raises(ValueError, match="no samples"):
+        log.segment(1000, 1001)
+
+
+def test_despike_removes_isolated_spikes_only():
+    x = np.sin(np.linspace(0, 3, 300)) * 0.1
+    y = x.copy()
+    y[[50, 200]] += 0.4
+    clean, idx = despike(y, 0.05)
+    np.testing.assert_array_equal(idx, [50, 200])
+    np.testing.assert_allclose(clean, x, atol=2e-3)
+    assert y[50] > 0.3  # input untouched
+    revs = load_revs()
+    _, idx = despike(revs.delta, 0.05)
+    assert 671.66 < revs.t[idx].max() < 671.68
+
+
+def test_write_csv_is_atomic_on_failure(tmp_path):
+    out = tmp_path / "est.csv"
+    with pytest.raises(ValueError):
+        write_csv(out, {"a": np.arange(3), "b": np.arange(4)})
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))

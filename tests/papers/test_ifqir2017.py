@@ -1,0 +1,67 @@
+"""Ifqir 2017 constants against the slides' printed numbers, and what the printed solution
+tells about the reconstruction (vertex ordering, Metzler structure)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from vehicle_observers.observers import interval as iv
+from vehicle_observers.papers import ifqir2017 as pp
+from vehicle_observers.papers import yacine2015 as yc
+
+
+def test_printed_values_transcribed():
+    P, L = pp.P_printed, pp.L_printed
+    assert P.shape == (3, 4, 2) and L.shape == (3, 4, 2)
+    # spot checks against the slides (first, middle and last printed entries)
+    assert P[0, 0].tolist() == [0.0080, 0.0205] and P[0, 2, 1] == 0.3545
+    assert P[1, 3].tolist() == [0.2870, 0.5521] and P[2, 1, 1] == 0.3171
+    assert L[0, 0].tolist() == pytest.approx([-0.0136e3, 4.3830e3])
+    assert L[0, 1].tolist() == pytest.approx([-0.0078e3, 4.3813e3])
+    assert L[1, 0].tolist() == [-11.1729, 153.0217] and L[2, 3].tolist() == [-14.0961, 316.8263]
+    assert pp.bands_printed == (0.0, 6.0, 11.0, 16.6)
+    assert pp.rel_unc == 0.10
+
+
+def test_vehicle_is_yacine_car_with_box_from_its_tyre_bounds():
+    v = pp.vehicle
+    assert (v.m, v.I_z, v.l_f, v.l_r) == (1500.0, 2454.0, 1.1, 1.44)
+    box = v.xi_box                      # rows (c_r, c_f)
+    assert box[1, 1] == pytest.approx(yc.M_f1) and box[0, 1] == pytest.approx(yc.M_r1)
+    assert box[1, 0] == pytest.approx(0.9 / 1.1 * yc.M_f1)
+    # inner band edges as printed in (22)
+    assert pp.bands.edges[1:3] == pp.bands_printed[1:3]
+
+
+def test_printed_structure_diagonal_positive_P_and_gain_signs():
+    assert np.all(pp.P_printed > 0)
+    # Metzler entry (1,2) of A - L C is A12 - L1 with A12 ~ -v_x: needs L1 < 0; L2 > 0
+    assert np.all(pp.L_printed[..., 0] < 0) and np.all(pp.L_printed[..., 1] > 0)
+
+
+def test_printed_gains_are_metzler_for_this_vehicle_with_vx_as_fast_index():
+    """The printed L1 of modes 2-3 satisfy L1^j <= A^-_12 at vertex j of our reconstruction
+    (bands 6-11, 11-16.6 m/s, vertex order with v_x as the fast index); the other ordering
+    violates it -- support for the documented ordering."""
+    m = iv.SwitchedIntervalModel(pp.vehicle, iv.SpeedBands((3.0, 6.0, 11.0, 16.6)))
+    A12 = m.A_lo[1:, :, 0, 1]
+    L1 = pp.L_printed[1:, :, 0]
+    assert np.all(L1 <= A12)
+    assert not np.all(L1 <= A12[:, [0, 2, 1, 3]])
+    # the printed L1 shifts by about -(v_max - v_min) between the v_max and v_min vertices,
+    # as A12 = ... - v_x does: mode 2 (5 m/s): 4.94, 4.92; mode 3 (5.6 m/s): 5.46, 5.47
+    d = L1[:, [1, 3]] - L1[:, [0, 2]]
+    np.testing.assert_allclose(d, [[5.0, 5.0], [5.6, 5.6]], rtol=0.05)
+
+
+def test_designed_gains_vs_printed():
+    """Our Theorem 2 solution has the printed structure: L1 < A12 (Metzler), L2 > 0, the
+    L1 shift of about the band width between v_max and v_min vertices, and gains of the same
+    order of magnitude (10^1 for L1 above 6 m/s, 10^2-10^3 for L2)."""
+    des = pp.design()
+    L = des.L[..., 0]
+    assert np.all(L[1:, :, 1] > 0) and np.all(L[1:, :, 0] < 0)
+    d = L[1:, [1, 3], 0] - L[1:, [0, 2], 0]
+    np.testing.assert_allclose(d, [[5.0, 5.0], [5.5, 6.5]], rtol=0.25)
+    ratio = np.abs(L[1:]) / np.abs(pp.L_printed[1:])
+    assert np.all((ratio > 0.3) & (ratio < 10))

@@ -1,0 +1,207 @@
+"""Experiments and figures of notebook 03 (``interval_study``) on short horizons: each
+experiment against a known answer or an independent computation, each figure's axes."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
+from vehicle_observers.observers import interval as iv
+from vehicle_observers.papers import ifqir2017 as IF
+from vehicle_observers.papers import nb03_interval_observer as ist
+
+T_SHORT = 10.0   # s of the emulated run used here (the notebook: 40 s quick, full lap)
+
+
+@pytest.fixture(scope="module")
+def ds():
+    return ist.design_study(seed=0, quick=True)
+
+
+@pytest.fixture(scope="module")
+def log():
+    return emulated_satory(seed=0, quick=True).segment(0.0, T_SHORT)
+
+
+@pytest.fixture(scope="module")
+def lpv(log, ds):
+    return ist.lpv_experiment(log, ds["des"], ds["des1"], seed=0)
+
+
+@pytest.fixture(scope="module")
+def nl(log, ds):
+    return ist.nonlinear_experiment(log, ds["des"], ds["des1"])
+
+
+@pytest.fixture(scope="module")
+def revs():
+    return ist.revs_experiment(quick=True, span=30.0)
+
+
+def _values(d):
+    return {k: v[0] for k, v in d["metrics"].items()}
+
+
+def test_metrics_are_value_unit_note_triples(ds, lpv, nl, revs):
+    for d in (ist.box_summary(), ds, ist.gain_comparison(ds["des"]), lpv, nl, revs):
+        for k, v in d["metrics"].items():
+            assert len(v) == 3 and isinstance(v[1], str) and isinstance(v[2], str), k
+
+
+def test_box_summary_against_nominal_stiffness():
+    b = _values(ist.box_summary())
+    np.testing.assert_allclose(b["stiffness_box_cr"], [0.9 * IF.c_r0, 1.1 * IF.c_r0])
+    np.testing.assert_allclose(b["stiffness_box_cf"], [0.9 * IF.c_f0, 1.1 * IF.c_f0])
+    a, c = IF.c_r0 * IF.l_r, IF.c_f0 * IF.l_f
+    assert b["max_rel_unc_metzler"] == pytest.approx((a - c) / (a + c))
+    # at that relative uncertainty entry (2,1) of A^- is zero (the Metzler limit)
+    u = b["max_rel_unc_metzler"]
+    assert (1 - u) * a - (1 + u) * c == pytest.approx(0.0, abs=1e-6 * a)
+
+
+def test_design_study(ds):
+    v = _values(ds)
+    g = np.asarray(v["gamma_per_mode"])
+    assert v["gamma"] == pytest.approx(g.max())
+    assert np.all(np.diff(g) > 0)                       # higher speed band, larger gamma_i
+    assert v["gamma_single_mode"] >= v["gamma"] * (1 - 1e-3)
+    assert v["blended_iss_max_eig"] < 0
+    assert v["metzler_margin_min"] == pytest.approx(np.min(v["metzler_margins"]))
+    # dwell time ln(mu)/eps with mu = max P_b/P_a over adjacent modes, all vertex pairs
+    P = ds["des"].P
+    mu = max(float(np.max(P[b][:, None, :] / P[a][None, :, :]))
+             for i in range(P.shape[0] - 1) for a, b in ((i, i + 1), (i + 1, i)))
+    assert v["dwell_time_bound"] == pytest.approx(math.log(mu) / IF.eps_decay)
+    assert ds["text"].count("\n") == 4
+
+
+def test_gain_comparison_known_answer():
+    # a "design" whose gains are the printed ones: ratio exactly 1, same shifts, printed signs
+    fake = SimpleNamespace(L=IF.L_printed[..., None].copy(), P=IF.P_printed.copy())
+    gc = ist.gain_comparison(fake)
+    assert gc["ratio_range"] == [1.0, 1.0]
+    np.testing.assert_array_equal(gc["shift_designed"], gc["shift_printed"])
+    np.testing.assert_allclose(gc["shift_printed"], [[-6.2345 + 11.1729, -7.7325 + 12.6483],
+                                                     [-13.6983 + 19.1574, -14.0961 + 19.5678]])
+    assert gc["sign_ok"]
+    fake.L[2, 1, 1, 0] = -1.0                           # one L2 < 0 in mode 3
+    assert not ist.gain_comparison(fake)["sign_ok"]
+    fake.L = 2.0 * IF.L_printed[..., None]
+    assert ist.gain_comparison(fake)["ratio_range"] == [2.0, 2.0]
+
+
+def test_gain_comparison_of_the_design(ds):
+    gc = ist.gain_comparison(ds["des"])
+    L = ds["des"].L
+    assert gc["shift_designed"][1, 0] == L[2, 1, 0, 0] - L[2, 0, 0, 0]
+    assert gc["ratio_range"][0] <= gc["ratio_range"][1]
+    assert set(gc["metrics"]) == {"L_designed", "P_designed", "L1_shift_designed",
+                                  "L1_shift_printed"}
+
+
+def test_lpv_experiment_truth_and_guarantee(lpv, log, ds):
+    veh = ds["des"].model.veh
+    box = veh.xi_box
+    assert np.all((lpv["xi"] >= box[:, 0]) & (lpv["xi"] <= box[:, 1]))
+    # truth: explicit Euler of (3)-(4) at dt, recomputed with lpv_A / lpv_B at a few samples
+    X, dt = lpv["X"], log.dt
+    for k in (0, 1234, len(X) - 2):
+        v, xi = lpv["vx"][k], lpv["xi"][k]
+        dx = iv.lpv_A(1 / v, v, xi, veh) @ X[k] + iv.lpv_B(xi, veh)[:, 0] * lpv["delta"][k]
+        np.testing.assert_allclose(X[k + 1], X[k] + dt * dx, rtol=1e-9, atol=1e-12)
+    v = _values(lpv)
+    assert v["lpv_enclosure_vy"] == 1.0 and v["lpv_enclosure_r"] == 1.0 and lpv["enclosure"] == 1.0
+    # the width ratio against an independent mean over t >= 5 s
+    w = log.t >= log.t[0] + ist.WIDTH_T_SKIP
+    ratio = lpv["res"].width[w, 0].mean() / lpv["res1"].width[w, 0].mean()
+    assert v["lpv_width_ratio_vy"] == pytest.approx(ratio, rel=1e-12)
+    assert v["euler_substeps"] == 1
+    assert lpv["max_accel"] <= IF.accel_max + 1e-6
+
+
+def test_effective_stiffness_share_known_answer():
+    box = np.array([[9.0, 11.0], [4.0, 6.0]])            # rear [9, 11], front [4, 6] N/rad
+    a = np.radians([1.0, 1.0, 1.0, 0.1, -2.0])           # sample 3: slip too small, left out
+    log = SimpleNamespace(extra={"alpha_f_true_rad": a, "alpha_r_true_rad": a},
+                          Ff=a * np.array([5.0, 7.0, 5.0, 5.0, 5.0]),   # front in: 0, 2, 4
+                          Fr=a * np.array([10.0, 10.0, 8.0, 1.0, 12.0]))  # rear in: 0, 1
+    s = ist.effective_stiffness_share(log, box)
+    assert s["front"] == 0.75 and s["rear"] == 0.5 and s["share_big_slip"] == 0.8
+    log.extra = {"alpha_f_true_rad": 0.1 * a, "alpha_r_true_rad": 0.1 * a}   # all < 0.5 deg
+    s = ist.effective_stiffness_share(log, box)
+    assert np.isnan(s["front"]) and np.isnan(s["rear"]) and s["share_big_slip"] == 0.0
+
+
+def test_nonlinear_experiment(nl, log, ds):
+    v = _values(nl)
+    lo, hi = nl["res"].x_lo, nl["res"].x_hi
+    for c, nm in enumerate(("vy", "r")):
+        x = nl["truth"][:, c]
+        assert v[f"nl_enclosure_{nm}"] == np.mean((lo[:, c] <= x) & (x <= hi[:, c]))
+    assert v["nl_n_clipped"] == int(np.sum((log.vx < 0.1) | (log.vx > 17.5)))
+    # the gyro bound is 3 sigma: without it the r interval collapses onto the gyro
+    tight = ist.nonlinear_experiment(log, ds["des"], ds["des1"], n_sigma=0.0)
+    assert tight["m"]["width_mean_r"] < 0.1 * nl["m"]["width_mean_r"]
+    assert nl["m"]["width_mean_r"] == pytest.approx(2 * 3 * NOISE_STD["yaw_rate"], rel=0.2)
+
+
+def test_enclosure_by_band_known_answer():
+    t = np.arange(6.0)
+    res = iv.IntervalResult(x_lo=np.zeros((6, 2)), x_hi=np.ones((6, 2)), sigma=np.zeros(6, int),
+                            substeps=1, n_clipped=0)
+    ref = np.array([[0.5, 0.5], [2.0, 0.5], [0.5, 0.5], [0.5, -1.0], [0.5, 0.5], [3.0, 0.5]])
+    ay = np.array([1.0, -2.0, 4.0, 5.0, 7.0, -8.0])
+    rows = ist.enclosure_by_band(res, ref, t, ay, t_skip=0.0)
+    assert [r["share"] for r in rows] == pytest.approx([2 / 6, 2 / 6, 2 / 6])
+    assert [r["enclosure_vy"] for r in rows] == [0.5, 1.0, 0.5]
+    assert [r["enclosure_r"] for r in rows] == [1.0, 0.5, 1.0]
+    # t_skip drops the first samples from the enclosure, not from the share
+    rows = ist.enclosure_by_band(res, ref, t, ay, bands=((0, 6),), t_skip=1.5)
+    assert rows == [{"lo": 0, "hi": 6, "share": 4 / 6, "enclosure_vy": 1.0, "enclosure_r": 0.5}]
+
+
+def test_revs_experiment(revs):
+    log = revs["log"]
+    assert log.t[-1] - log.t[0] <= 30.0 + 1e-9
+    v = _values(revs)
+    ay = np.abs(log.extra["ay_filt_mps2"])
+    for lo, hi in ist.AY_BANDS:
+        assert v[f"revs_share_ay_{lo}_{hi}"] == np.mean((ay >= lo) & (ay < hi))
+    assert sum(r["share"] for r in revs["by_ay"]) == pytest.approx(1.0)
+    assert v["revs_gamma"] == pytest.approx(max(revs["rdes"].gammas))
+    w = log.t >= log.t[0] + ist.WIDTH_T_SKIP
+    assert v["revs_width_mean_vy"] == pytest.approx(revs["res"].width[w, 0].mean(), rel=1e-12)
+    assert revs["t_zoom"] == log.t[0] + 20.0
+    assert [k for k in v if k.startswith("revs_enclosure_vy_ay")] == [
+        "revs_enclosure_vy_ay_0_3", "revs_enclosure_vy_ay_3_6", "revs_enclosure_vy_ay_6_99"]
+
+
+def test_summary(lpv, nl, revs):
+    s = ist.summary(lpv, nl, revs).splitlines()
+    assert len(s) == 3 and s[0].startswith("emulated LPV truth: enclosure 1.000 / 1.000")
+    assert f"{revs['m']['width_mean_vy']:.4f} m/s" in s[2]
+
+
+@pytest.mark.parametrize("name, n_axes", [
+    ("gains", 3), ("inputs_emulated", 3), ("intervals_lpv", 2), ("intervals_nonlinear", 2),
+    ("widths", 2), ("inputs_revs", 3), ("intervals_revs", 2), ("intervals_revs_zoom", 2)])
+def test_figures(name, n_axes, ds, lpv, nl, revs):
+    make = {"gains": lambda: ist.fig_gains(ist.gain_comparison(ds["des"])),
+            "inputs_emulated": lambda: ist.fig_inputs_emulated(lpv),
+            "intervals_lpv": lambda: ist.fig_intervals_lpv(lpv),
+            "intervals_nonlinear": lambda: ist.fig_intervals_nonlinear(nl),
+            "widths": lambda: ist.fig_widths(nl),
+            "inputs_revs": lambda: ist.fig_inputs_revs(revs),
+            "intervals_revs": lambda: ist.fig_intervals_revs(revs),
+            "intervals_revs_zoom": lambda: ist.fig_intervals_revs(revs, zoom=True)}[name]
+    fig = make()
+    try:
+        assert isinstance(fig, Figure)
+        assert len(fig.axes) == n_axes
+    finally:
+        plt.close(fig)
