@@ -56,3 +56,11 @@ def test_ts_model_vertices_match_eq_21():
         np.testing.assert_allclose(A, A21, rtol=1e-14)
         np.testing.assert_allclose(B[:, 0], [0, 0, vx * Mf / (m * r), af * vx * Mf / (Iz * r)],
                                    rtol=1e-14)
+
+
+def test_shipped_vehicle_file_is_the_papers_car():
+    """The library's default car (vehicle file ``yacine2015``) is exactly the paper module's."""
+    from vehicle_observers.models.vehicle import load_vehicle
+    from vehicle_observers.papers import yacine2015
+
+    assert load_vehicle("yacine2015").params == yacine2015.params

@@ -3,27 +3,38 @@
 Usage in a notebook::
 
     rep = Report("01_ts_exactness", figures_dir, quick=quick, seed=seed)
-    rep.savefig(fig, "fig1_real_log")                 # PNG (+ PDF)
-    rep.metric("rmse_vy_ts", 0.28, "m/s")
-    rep.claim("Yacine 2015", "Fig. 1", "fig1_real_log", "yaw-rate fit", 0.98,
-              target="model fits the measurements", verdict="reproduced", note="...")
-    rep.write()                                         # metrics.json
+    rep.savefig(fig, "fig1_real_log")                 # shown inline, saved as PNG (+ PDF)
+    rep.metric("rmse_vy_ts", 0.28, "m/s")             # stored at 4 significant digits
+    rep.claim("Yacine 2015", "Fig. 1", "fig1_real_log", "yaw-rate fit",
+              Rule("fit_r", reproduced="value >= 0.95", paper="model fits the measurements"))
+    rep.timing("observer_us_per_step", 0.8, "us")     # wall clock: build/timings/, never committed
+    rep.write()                                       # metrics.json
 
-``metrics.json`` holds the metrics, the claims (read by the pipeline to build
-REPRODUCTION.md) and the list of files written, so a test can check that every file in
-``figures/`` comes from a notebook. Files are written deterministically (no timestamps).
+The verdict of a claim is computed by its :class:`~vehicle_observers.results.rules.Rule` from
+the metrics recorded before it, never written by hand. ``metrics.json`` holds the metrics (with
+their precision and, where a value depends on the solver or the platform beyond that precision,
+its tolerance and the reason), the claims with their rules and verdicts (read by the pipeline
+to build REPRODUCTION.md) and the list of files written. Files are written deterministically
+(no timestamps, fixed hash salt). Wall-clock measurements go to ``build/timings/<notebook>.json``
+(ignored by git): they differ on every run and are reported by ``make bench``.
+
+``figures_dir=None`` (the default of every notebook's ``parameters`` cell) writes to
+``build/interactive/`` (ignored by git): only the pipeline writes the committed ``figures/``.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
+
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results.rules import VERDICTS, Rule, fmt, round_sig
 
 matplotlib.rcParams.update({
     "figure.dpi": 100, "savefig.dpi": 110, "figure.figsize": (9.0, 5.0), "axes.grid": True,
@@ -31,7 +42,12 @@ matplotlib.rcParams.update({
     "lines.linewidth": 1.1, "svg.hashsalt": "vehicle-observers", "path.simplify": True,
 })
 
-VERDICTS = ("reproduced", "partly", "differs", "not comparable")
+__all__ = ["Report", "Rule", "VERDICTS", "load_metrics", "interactive_dir"]
+
+
+def interactive_dir() -> Path:
+    """Where interactive runs write (``build/interactive``, ignored by git)."""
+    return repo_root() / "build" / "interactive"
 
 
 def _jsonable(v):
@@ -61,25 +77,43 @@ class Claim:
     target: str
     verdict: str
     note: str = ""
+    rule: str = ""
+    proves_little: bool = False
+    rule_def: dict = field(default_factory=dict)
+
+
+def _in_kernel() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython is a dependency of the notebooks
+        return False
+    ip = get_ipython()
+    return ip is not None and hasattr(ip, "kernel")
 
 
 class Report:
     """Collects figures, metrics and paper claims of one notebook."""
 
-    def __init__(self, notebook: str, figures_dir="../figures", quick: bool = False,
-                 seed: int = 0, formats=("png", "pdf")):
+    def __init__(self, notebook: str, figures_dir=None, quick: bool = False,
+                 seed: int = 0, formats=("png", "pdf"), show: bool | None = None):
         self.notebook = notebook
-        self.dir = Path(figures_dir) / notebook
+        base = interactive_dir() if figures_dir is None else Path(figures_dir)
+        self.dir = base / notebook
         self.dir.mkdir(parents=True, exist_ok=True)
         self.quick = bool(quick)
         self.seed = int(seed)
         self.formats = tuple(formats)
+        self.show = _in_kernel() if show is None else bool(show)
         self.metrics: dict[str, dict] = {}
         self.claims: list[Claim] = []
         self.files: list[str] = []
+        self.timings: dict[str, dict] = {}
 
+    # ------------------------------------------------------------------ figures ----------
     def savefig(self, fig, name: str, close: bool = True):
-        """Save ``fig`` as ``<name>.png`` (and the other formats) in the notebook's folder."""
+        """Save ``fig`` as ``<name>.png`` (and the other formats) in the notebook's folder and,
+        in a notebook, show it inline (as the saved PNG, whatever the matplotlib backend).
+        Returns ``None`` so that a cell ending with it prints nothing."""
         if "/" in name or "." in name:
             raise ValueError(f"figure name {name!r}: no extension or folder, e.g. 'fig2_vy'")
         fig.tight_layout()
@@ -90,29 +124,94 @@ class Report:
             fig.savefig(self.dir / fn, metadata=meta)
             if fn not in self.files:
                 self.files.append(fn)
+        png = self.dir / f"{name}.png"
+        if self.show:
+            from IPython.display import Image, display
+
+            display(Image(filename=str(png)))
         if close:
             plt.close(fig)
+        return None
+
+    def path(self, name: str) -> Path:
+        """Path of a saved figure (``<name>.png``)."""
         return self.dir / f"{name}.png"
 
-    def metric(self, name: str, value, unit: str = "", note: str = ""):
-        self.metrics[name] = {"value": _jsonable(value), "unit": unit, "note": note}
+    # ------------------------------------------------------------------ metrics ----------
+    def metric(self, name: str, value, unit: str = "", note: str = "", digits: int = 4,
+               rtol: float | None = None, atol: float | None = None, why: str = ""):
+        """Record a metric, stored at ``digits`` significant digits. ``rtol``/``atol``: the
+        tolerance ``make check`` allows between two regenerations when the value depends on
+        the solver or the platform beyond that precision (give the reason in ``why``).
+        Returns the stored (rounded) value."""
+        if (rtol is not None or atol is not None) and not why:
+            raise ValueError(f"metric {name!r}: say why the tolerance is needed (why=...)")
+        stored = round_sig(_jsonable(value), digits)
+        entry = {"value": stored, "unit": unit, "note": note, "digits": digits}
+        if rtol is not None:
+            entry["rtol"] = float(rtol)
+        if atol is not None:
+            entry["atol"] = float(atol)
+        if why:
+            entry["why"] = why
+        self.metrics[name] = entry
+        return stored
+
+    def values(self) -> dict:
+        """``{metric name: stored value}``."""
+        return {k: v["value"] for k, v in self.metrics.items()}
+
+    def timing(self, name: str, value, unit: str = "s", note: str = ""):
+        """A wall-clock measurement: written to ``build/timings/<notebook>.json`` (ignored by
+        git), never to metrics.json, so regeneration leaves the committed files unchanged."""
+        self.timings[name] = {"value": _jsonable(value), "unit": unit, "note": note}
         return value
 
-    def claim(self, paper: str, item: str, figure: str, metric: str, value, target: str,
-              verdict: str, note: str = ""):
-        """Record one paper figure/claim and how this reproduction compares with it."""
+    # ------------------------------------------------------------------ claims -----------
+    def claim(self, paper: str, item: str, figure: str, metric: str, rule: Rule = None,
+              target=None, verdict=None, note: str = "", value=None):
+        """Record one paper claim; its verdict is computed by ``rule`` (a
+        :class:`~vehicle_observers.results.rules.Rule`) from the metrics recorded so far.
+
+        The older form ``claim(paper, item, figure, metric, value, target, verdict, note)``
+        with a hand-written verdict is still accepted while the notebooks move to rules; such a
+        claim is marked ``rule: "(hand-written verdict)"`` in REPRODUCTION.md."""
+        if isinstance(rule, Rule):
+            if target is not None or verdict is not None:
+                raise TypeError(f"claim {paper} {item}: with a Rule, give neither target nor verdict")
+            j = rule.judge(self.values())
+            c = Claim(paper, item, figure, metric, _jsonable(j.value), rule.paper, j.verdict, note,
+                      rule.text(), j.proves_little,
+                      {k: v for k, v in asdict(rule).items() if v is not None})
+            self.claims.append(c)
+            return j
         if verdict not in VERDICTS:
             raise ValueError(f"verdict must be one of {VERDICTS}, got {verdict!r}")
-        self.claims.append(Claim(paper, item, figure, metric, _jsonable(value), target,
-                                 verdict, note))
+        value = rule if value is None else value
+        self.claims.append(Claim(paper, item, figure, metric, _jsonable(value), target, verdict,
+                                 note, "(hand-written verdict)"))
+        return None
 
+    # ------------------------------------------------------------------ output -----------
     def write(self) -> Path:
         path = self.dir / "metrics.json"
         doc = {"notebook": self.notebook, "quick": self.quick, "seed": self.seed,
                "metrics": self.metrics, "claims": [c.__dict__ for c in self.claims],
                "files": sorted(self.files + ["metrics.json"])}
         path.write_text(json.dumps(_jsonable(doc), indent=1, sort_keys=False) + "\n")
+        if self.timings:
+            tdir = repo_root() / "build" / "timings"
+            tdir.mkdir(parents=True, exist_ok=True)
+            (tdir / f"{self.notebook}.json").write_text(
+                json.dumps({"notebook": self.notebook, "quick": self.quick,
+                            "timings": _jsonable(self.timings)}, indent=1) + "\n")
         return path
+
+    def table(self, rows, columns=None, digits: int = 3):
+        """Show rows (list of dicts) as a rounded HTML table in a notebook (text elsewhere)."""
+        from vehicle_observers.results.tables import show_table
+
+        return show_table(rows, columns, digits)
 
 
 def load_metrics(path) -> dict:
@@ -121,3 +220,6 @@ def load_metrics(path) -> dict:
     out = {k: v["value"] for k, v in doc["metrics"].items()}
     out["_doc"] = doc
     return out
+
+
+__all__ += ["fmt"]
