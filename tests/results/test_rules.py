@@ -51,6 +51,15 @@ def test_bad_rules_are_refused_with_a_clear_message(expr, msg):
         Rule(expr).judge({"a": 1.0}) if "missing" in expr else Rule(expr)
 
 
+def test_metric_names_that_are_not_identifiers():
+    m = {"revs.ekf.rmse_vy": 0.229, "revs.rts.rmse_vy": 0.304}
+    r = Rule("metric('revs.rts.rmse_vy') / metric('revs.ekf.rmse_vy')", reproduced="value <= 1")
+    j = r.judge(m)
+    assert j.verdict == "differs" and abs(j.value - 0.304 / 0.229) < 1e-12
+    with pytest.raises(RuleError, match="no metric named revs.ukf"):
+        Rule("metric('revs.ukf.rmse_vy')").judge(m)
+
+
 def test_condition_must_be_boolean_and_value_finite():
     with pytest.raises(RuleError, match="True/False"):
         Rule("a", reproduced="value + 1").judge({"a": 1.0})

@@ -13,8 +13,9 @@ A claim of a paper is judged by a :class:`Rule`: an expression over the run's me
   (e.g. a bound three orders of magnitude above the error).
 
 Expressions are Python syntax restricted to metric names, numbers, arithmetic, comparisons,
-``and``/``or``/``not``, indexing and ``abs``/``min``/``max``/``len``/``all``/``any``; they are
-written verbatim beside the verdict in REPRODUCTION.md, so a reader sees the rule.
+``and``/``or``/``not``, indexing and ``abs``/``min``/``max``/``len``/``all``/``any``; a metric whose
+name is not an identifier (``revs.ekf.rmse_vy``) is read with ``metric('revs.ekf.rmse_vy')``. They
+are written verbatim beside the verdict in REPRODUCTION.md, so a reader sees the rule.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 VERDICTS = ("reproduced", "partly", "differs", "not comparable")
-_FUNCS = {"abs": abs, "min": min, "max": max, "len": len, "all": all, "any": any}
+_FUNCS = {"abs": abs, "min": min, "max": max, "len": len, "all": all, "any": any, "metric": None}
 _NODES = (ast.Expression, ast.BoolOp, ast.BinOp, ast.UnaryOp, ast.Compare, ast.Name, ast.Load,
           ast.Constant, ast.Subscript, ast.Call, ast.Tuple, ast.List, ast.Slice, ast.And, ast.Or,
           ast.Not, ast.USub, ast.UAdd, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.Mod,
@@ -54,15 +55,18 @@ def _check_syntax(expr: str) -> ast.Expression:
 def evaluate(expr: str, names: dict):
     """Value of a rule expression with ``names`` (metric name -> value)."""
     tree = _check_syntax(expr)
-    missing = sorted({n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
-                     - set(names) - set(_FUNCS))
+    missing = sorted(({n.id for n in ast.walk(tree) if isinstance(n, ast.Name)} - set(_FUNCS)
+                      | {n.args[0].value for n in ast.walk(tree) if isinstance(n, ast.Call)
+                         and n.func.id == "metric" and n.args and isinstance(n.args[0], ast.Constant)})
+                     - set(names))
     if missing:
         raise RuleError(f"rule expression {expr!r}: no metric named {', '.join(missing)} "
                         "(record it with Report.metric before the claim)")
     env = {k: (np.asarray(v) if isinstance(v, list) else v) for k, v in names.items()}
+    funcs = {**_FUNCS, "metric": lambda k: env[k]}
     try:
         with np.errstate(all="ignore"):
-            out = eval(compile(tree, "<rule>", "eval"), {"__builtins__": {}, **_FUNCS}, env)
+            out = eval(compile(tree, "<rule>", "eval"), {"__builtins__": {}, **funcs}, env)
     except (ArithmeticError, IndexError, TypeError) as exc:
         raise RuleError(f"rule expression {expr!r}: {type(exc).__name__}: {exc} "
                         "(value not finite or not computable)") from None

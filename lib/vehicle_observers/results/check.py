@@ -1,0 +1,173 @@
+"""Regeneration check: do the committed results survive a fresh regeneration?
+
+    python -m vehicle_observers.results.check              # regenerate into build/check, compare
+    python -m vehicle_observers.results.check --compare A  # compare figures/ with a folder A only
+
+(``make check``.) Every notebook is run in full mode into ``build/check/figures``; then every
+committed metric in ``figures/<notebook>/metrics.json`` is compared with the regenerated one
+and every claim's verdict must be identical. A numeric metric may move by its tolerance:
+
+* one unit in the last stored digit (metrics are stored at ``digits`` significant digits, so a
+  value sitting on a rounding boundary may flip by one unit), or
+* the metric's own declared ``rtol`` / ``atol`` (set where the value depends on the LMI solver or
+  the platform beyond its stored precision; ``metrics.json`` records the reason, ``why``).
+
+A table of every drift is printed (metric, committed, regenerated, tolerance); the exit status
+is 1 on a verdict change, a missing/new metric or claim, or a drift beyond tolerance, else 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results.rules import fmt
+
+
+@dataclass
+class Drift:
+    notebook: str
+    what: str
+    committed: object
+    regenerated: object
+    tolerance: str
+    ok: bool
+
+
+def _last_digit_unit(x: float, digits: int) -> float:
+    if x == 0 or not math.isfinite(x):
+        return 0.0
+    return 10.0 ** (math.floor(math.log10(abs(x))) - digits + 1)
+
+
+def _num_close(a, b, entry) -> tuple[bool, float]:
+    """``(within tolerance, |a - b|)`` for two numbers of one metric ``entry``."""
+    if isinstance(a, str) or isinstance(b, str):  # "nan" / "inf" stored as text
+        return a == b, 0.0
+    digits = int(entry.get("digits", 4))
+    tol = max(_last_digit_unit(float(a), digits), _last_digit_unit(float(b), digits),
+              float(entry.get("atol", 0.0)), float(entry.get("rtol", 0.0)) * abs(float(a)))
+    d = abs(float(a) - float(b))
+    return d <= tol * (1 + 1e-9), d
+
+
+def _compare_values(a, b, entry) -> tuple[bool, float]:
+    if isinstance(a, bool) or isinstance(b, bool) or a is None or b is None:
+        return a == b, 0.0
+    if isinstance(a, (int, float, str)) and isinstance(b, (int, float, str)):
+        return _num_close(a, b, entry)
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return False, math.inf
+        res = [_compare_values(x, y, entry) for x, y in zip(a, b)]
+        return all(r[0] for r in res), max((r[1] for r in res), default=0.0)
+    if isinstance(a, dict) and isinstance(b, dict):
+        if set(a) != set(b):
+            return False, math.inf
+        res = [_compare_values(a[k], b[k], entry) for k in a]
+        return all(r[0] for r in res), max((r[1] for r in res), default=0.0)
+    return a == b, 0.0
+
+
+def _tol_text(entry) -> str:
+    parts = [f"{entry.get('digits', 4)} digits"]
+    if "rtol" in entry:
+        parts.append(f"rtol {entry['rtol']:g}")
+    if "atol" in entry:
+        parts.append(f"atol {entry['atol']:g}")
+    return ", ".join(parts)
+
+
+def compare_doc(old: dict, new: dict) -> list[Drift]:
+    """Drifts between two metrics.json documents of one notebook (committed, regenerated)."""
+    nb = old.get("notebook", "?")
+    out = []
+    om, nm = old["metrics"], new["metrics"]
+    for k in sorted(set(om) | set(nm)):
+        if k not in nm or k not in om:
+            out.append(Drift(nb, f"metric {k}", om.get(k, {}).get("value", "(absent)"),
+                             nm.get(k, {}).get("value", "(absent)"), "present in both", False))
+            continue
+        a, b = om[k]["value"], nm[k]["value"]
+        if a == b:
+            continue
+        ok, _ = _compare_values(a, b, om[k])
+        out.append(Drift(nb, f"metric {k}", a, b, _tol_text(om[k]), ok))
+    oc, nc = old.get("claims", []), new.get("claims", [])
+    key = lambda c: (c["paper"], c["item"])  # noqa: E731
+    ocd, ncd = {key(c): c for c in oc}, {key(c): c for c in nc}
+    for k in sorted(set(ocd) | set(ncd)):
+        if k not in ncd or k not in ocd:
+            out.append(Drift(nb, f"claim {k[0]}: {k[1]}", ocd.get(k, {}).get("verdict", "(absent)"),
+                             ncd.get(k, {}).get("verdict", "(absent)"), "present in both", False))
+        elif ocd[k]["verdict"] != ncd[k]["verdict"]:
+            out.append(Drift(nb, f"claim {k[0]}: {k[1]}", ocd[k]["verdict"], ncd[k]["verdict"],
+                             "identical verdict", False))
+    return out
+
+
+def compare_dirs(committed: Path, regenerated: Path) -> list[Drift]:
+    """Drifts of every ``<notebook>/metrics.json`` of ``committed`` against ``regenerated``."""
+    out = []
+    for mj in sorted(committed.glob("*/metrics.json")):
+        if not (mj.parent / "metrics.json").exists():
+            continue
+        other = regenerated / mj.parent.name / "metrics.json"
+        old = json.loads(mj.read_text())
+        if "notebook" not in old:  # not a notebook's folder (e.g. the benchmark's)
+            continue
+        if not other.exists():
+            out.append(Drift(old["notebook"], "metrics.json", "present", "(absent)",
+                             "regenerated", False))
+            continue
+        out.extend(compare_doc(old, json.loads(other.read_text())))
+    return out
+
+
+def drift_table(drifts: list[Drift]) -> str:
+    """Markdown table of the drifts (or a line saying there are none)."""
+    if not drifts:
+        return "no drift: every metric identical at its stored precision, every verdict identical"
+    rows = ["| notebook | what | committed | regenerated | tolerance | within |",
+            "|---|---|---|---|---|---|"]
+    for d in drifts:
+        rows.append(f"| {d.notebook} | {d.what} | {fmt(d.committed, 4)} | {fmt(d.regenerated, 4)} "
+                    f"| {d.tolerance} | {'yes' if d.ok else '**NO**'} |")
+    return "\n".join(rows)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[1])
+    ap.add_argument("--compare", default=None,
+                    help="compare figures/ with this folder of regenerated results; no run")
+    ap.add_argument("--committed", default=None, help="committed folder (default: figures/)")
+    ap.add_argument("--build", default="build/check")
+    ap.add_argument("--timeout", type=int, default=1200)
+    args = ap.parse_args(argv)
+    root = repo_root()
+    committed = Path(args.committed) if args.committed else root / "figures"
+    if args.compare:
+        regenerated = Path(args.compare)
+    else:
+        from vehicle_observers.results import pipeline
+
+        build = root / args.build
+        regenerated = build / "figures"
+        rc = pipeline.main(["--figures", str(regenerated), "--build", str(build / "notebooks"),
+                            "--timeout", str(args.timeout)])
+        if rc != 0:
+            return rc
+    drifts = compare_dirs(committed, regenerated)
+    print(drift_table(drifts))
+    bad = [d for d in drifts if not d.ok]
+    print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
