@@ -1,5 +1,5 @@
 """Notebook 07 (benchmark of every observer) in quick mode: key numbers against independent
-computations, the issue's targets and the theory of each estimator."""
+computations, the benchmark's targets and the theory of each estimator."""
 
 import numpy as np
 import pytest
@@ -9,6 +9,8 @@ from vehicle_observers.data.logs import load_revs
 from vehicle_observers.papers import revs250lm as R
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb07")]
+#: metrics are stored at 4 significant digits
+REL = 1e-3
 
 
 @pytest.fixture(scope="module")
@@ -17,16 +19,17 @@ def m(run_notebook):
 
 
 def test_real_log_numbers_are_the_library_ekf(m):
-    """Recompute the real-log EKF from the tuning the notebook reports: same RMSE."""
+    """Recompute the real-log EKF from the tuning the notebook reports: same RMSE (up to the
+    4-digit storage of the tuning and of the RMSE)."""
     tun = K.KalmanTuning.from_theta(m["revs_tuning"])
     log = load_revs()
     res = K.ekf(log, R.params, tun)
-    assert m["revs.ekf.rmse_vy"] == pytest.approx(rmse(res.vy, log.vy), rel=1e-9)
+    assert m["revs.ekf.rmse_vy"] == pytest.approx(rmse(res.vy, log.vy), rel=2 * REL)
     assert m["revs.ekf.samples"] == len(log) == 55001
 
 
 def test_real_log_accuracy_target(m):
-    # issue 8: best causal estimator <= 0.24 m/s over the whole run (vy = 0 gives 0.743)
+    # best causal estimator <= 0.24 m/s over the whole run (vy = 0 gives 0.743)
     assert m["revs.best_causal_rmse_vy"] <= 0.24
     assert m["revs.best_causal"] in ("ekf", "ukf", "interval-ifqir2017")
     # the interval observer's midpoint is a worse point estimate than the EKF (its model is a
@@ -41,10 +44,6 @@ def test_emulated_runs_follow_theory(m):
     for ds in ("satory_n1", "satory_n3"):
         # truth = the filter's model family (+ relaxation, exact slip): mm/s-level error
         assert m[f"{ds}.ekf.rmse_vy"] < 0.01
-        # the smoother is as accurate as the filter here, not better: the truth has tyre
-        # relaxation and exact slip angles that the filters' model lacks, so the error is
-        # model mismatch, which smoothing does not remove (smoother < filter on the exact
-        # model: tests/test_kalman.py::test_rts_equals_filterpy_smoother_on_linear_model)
         assert m[f"{ds}.rts.rmse_vy"] < 0.01
         # interval observer: the Metzler guarantee encloses the truth (speeds clipped into
         # the bands void it on a few samples at the 17 m/s edge)
@@ -56,27 +55,44 @@ def test_emulated_runs_follow_theory(m):
     assert m["satory_n3.interval-ifqir2017.width_vy"] > m["satory_n1.interval-ifqir2017.width_vy"]
     # nonlinear manoeuvre (7 deg front slip at 17 m/s): the nonlinear filters stay accurate
     assert m["swd.ekf.rmse_vy"] < 0.02
-    # the UKF runs on a window that starts with the filter's own start-up transient; on the
-    # same window it is not worse than the same-model EKF (filterpy) by more than 10 %
+    # on the same window the UKF is not worse than the same-model EKF (filterpy) by > 10 %
     assert m["swd.ukf.samples"] == m["swd.ekf-filterpy.samples"]
     assert m["swd.ukf.rmse_vy"] <= 1.1 * m["swd.ekf-filterpy.rmse_vy"]
 
 
-def test_speed(m):
-    assert m["min_speedup_vs_filterpy_ekf"] >= 20
-    assert m["speedup_ekf_numba_vs_filterpy"] >= 20
-    # 350 s at 1 kHz within 2 s for the numba EKF (extrapolated from the quick run)
-    assert m["ekf_numba_350s_1khz_s"] < 2.0
-    for ds in ("satory_n1", "revs"):
-        assert np.isfinite(m[f"{ds}.interval-ifqir2017.design_s"])
+def test_no_wall_clock_value_is_committed(m):
+    timing = ("us_per_step", "realtime_factor", "design_s", "speedup", "seconds")
+    for k in m["_doc"]["metrics"]:
+        assert not any(t in k for t in timing), k
+    for c in m["_doc"]["claims"]:
+        assert not any(t in c["rule"] for t in timing), c["rule"]
 
 
-def test_claims_and_figures(m):
+def test_claims_are_computed_from_the_metrics(m):
     claims = {c["item"]: c for c in m["_doc"]["claims"]}
-    assert claims["accuracy target on the real log"]["verdict"] == "reproduced"
-    assert claims["RTS smoother frames every RMSE"]["verdict"] in ("reproduced", "differs")
-    for f in ("rmse_cost.png", "revs_vy.png", "losses_revs.png"):
+    acc = claims["accuracy target on the real log"]
+    assert acc["value"] == m["revs.best_causal_rmse_vy"]
+    assert acc["verdict"] == ("reproduced" if acc["value"] <= 0.24 else "differs")
+    rts = claims["the RTS smoother is at least as accurate as the filter (real log)"]
+    assert rts["value"] == pytest.approx(m["revs.rts.rmse_vy"] / m["revs.ekf.rmse_vy"], rel=1e-12)
+    assert rts["verdict"] == ("reproduced" if rts["value"] <= 1 else "differs")
+    for f in ("rmse_vy_by_dataset.png", "revs_vy.png", "losses_revs.png"):
         assert (m["_dir"] / f).exists()
+
+
+def test_exercise_solutions(m):
+    log = load_revs()
+    # exercise 1: the trivial estimator reproduces the published 0.743 m/s
+    assert m["exercise_vy0_rmse"] == pytest.approx(0.743, abs=0.001)
+    assert m["exercise_vy0_rmse"] == pytest.approx(float(np.sqrt(np.mean(log.vy ** 2))), rel=REL)
+    assert m["exercise_explained_share"] == pytest.approx(
+        1 - (m["revs.best_causal_rmse_vy"] / m["exercise_vy0_rmse"]) ** 2, abs=2e-3)
+    # exercise 2: the yaw-rate-only EKF recomputed from the reported tuning; the gain follows
+    tun = K.KalmanTuning.from_theta(m["revs_tuning"])
+    e_r = rmse(K.ekf(log, R.params, tun, use_ay=False).vy, log.vy)
+    assert m["exercise_ekf_yaw_only_rmse"] == pytest.approx(e_r, rel=2 * REL)
+    assert m["exercise_ay_gain"] == pytest.approx(
+        1 - m["revs.ekf.rmse_vy"] / m["exercise_ekf_yaw_only_rmse"], abs=2e-3)
 
 
 def test_where_the_real_log_is_lost(m):

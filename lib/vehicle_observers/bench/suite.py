@@ -64,7 +64,8 @@ def _color(name, j=0):
     return COLORS.get(name, f"C{6 + j % 4}")
 
 
-#: literature references on the Revs log (issue 8): v_y RMSE [m/s]
+#: references on the Revs log (the publishing repository's results, see data/revs_250lm_2014/
+#: PROVENANCE.md): v_y RMSE [m/s] over the whole run
 REVS_REFERENCES = {"vy = 0": 0.743, "their KF (linear bicycle, r + a_y)": 0.350,
                    "open-loop linear bicycle": 0.282, "offline factor graph": 0.242}
 
@@ -273,30 +274,50 @@ def summary_columns():
 
 
 # ------------------------------------------------------------------ plots ---------------
-def fig_rmse(rows):
+def _bars(ax, rows, key, ds, obs):
+    w = 0.8 / len(obs)
+    for j, o in enumerate(obs):
+        xs, ys = [], []
+        for i, d in enumerate(ds):
+            r = next((r for r in rows if r["dataset"] == d and r["observer"] == o), None)
+            if r is not None and np.isfinite(r.get(key, np.nan)):
+                xs.append(i + j * w)
+                ys.append(r[key])
+        ax.bar(xs, ys, w, label=o, color=_color(o, j))
+    ax.set_xticks(np.arange(len(ds)) + 0.4 - w / 2)
+    ax.set_xticklabels(ds)
+    ax.set_yscale("log")
+
+
+def fig_rmse(rows, target: float = 0.24):
+    """$v_y$ RMSE per dataset and observer (log scale), the real-log target as a dotted line;
+    legend beside the axes."""
     import matplotlib.pyplot as plt
 
     ds = list(dict.fromkeys(r["dataset"] for r in rows))
     obs = list(dict.fromkeys(r["observer"] for r in rows))
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    w = 0.8 / len(obs)
-    for j, o in enumerate(obs):
-        for key, a in (("rmse_vy", ax[0]), ("us_per_step", ax[1])):
-            xs, ys = [], []
-            for i, d in enumerate(ds):
-                r = next((r for r in rows if r["dataset"] == d and r["observer"] == o), None)
-                if r is not None and np.isfinite(r.get(key, np.nan)):
-                    xs.append(i + j * w)
-                    ys.append(r[key])
-            a.bar(xs, ys, w, label=o, color=_color(o, j))
-    for a, lab in zip(ax, ("v_y RMSE [m/s]", "cost per step [us]")):
-        a.set_xticks(np.arange(len(ds)) + 0.4 - w / 2)
-        a.set_xticklabels(ds)
-        a.set_yscale("log")
-        a.set_ylabel(lab)
-    ax[0].axhline(0.24, color="k", ls=":", lw=0.8)
-    ax[0].text(len(ds) - 1, 0.26, "target 0.24 (revs)", fontsize=7, ha="right")
-    ax[0].legend(fontsize=7, ncol=2)
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    _bars(ax, rows, "rmse_vy", ds, obs)
+    ax.set_ylabel(r"$v_y$ RMSE [m/s]")
+    ax.set_xlabel("dataset")
+    ax.axhline(target, color="k", ls=":", lw=0.8, label=f"real-log target {target:g} m/s")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    return fig
+
+
+def fig_rmse_cost(rows):
+    """Accuracy and wall-clock cost per step side by side (``make bench`` only: the cost
+    changes on every run, so this figure is not part of the committed notebook figures)."""
+    import matplotlib.pyplot as plt
+
+    ds = list(dict.fromkeys(r["dataset"] for r in rows))
+    obs = list(dict.fromkeys(r["observer"] for r in rows))
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
+    _bars(ax[0], rows, "rmse_vy", ds, obs)
+    _bars(ax[1], rows, "us_per_step", ds, obs)
+    ax[0].set_ylabel(r"$v_y$ RMSE [m/s]")
+    ax[1].set_ylabel(r"cost per step [$\mu$s]")
+    ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     return fig
 
 
@@ -339,7 +360,9 @@ def fig_losses(loss_rows):
 
     factors = list(dict.fromkeys(r["factor"] for r in loss_rows))
     names = [k for k in loss_rows[0] if k not in ("factor", "bin", "share")]
-    fig, ax = plt.subplots(1, len(factors), figsize=(12, 3.8))
+    fig, ax = plt.subplots(1, len(factors), figsize=(13, 4.4), sharey=True)
+    labels = {"|a_y| [m/s^2]": r"$|a_y|$ [m/s$^2$]", "v_x [m/s]": r"$v_x$ [m/s]",
+              "|a_y - (dv_y/dt + v_x r)| [m/s^2]": r"$|a_y - (\dot v_y + v_x r)|$ [m/s$^2$]"}
     for a, f in zip(np.atleast_1d(ax), factors):
         rr = [r for r in loss_rows if r["factor"] == f]
         x = np.arange(len(rr))
@@ -348,9 +371,10 @@ def fig_losses(loss_rows):
             a.bar(x + j * w, [r.get(n, np.nan) for r in rr], w, label=n, color=_color(n, j))
         a.set_xticks(x + 0.4 - w / 2)
         a.set_xticklabels([f"{r['bin']}\n{100 * r['share']:.0f} %" for r in rr], fontsize=7)
-        a.set_xlabel(f)
-        a.set_ylabel("v_y RMSE [m/s]")
-    np.atleast_1d(ax)[0].legend(fontsize=7)
+        a.set_xlabel(labels.get(f, f) + "\n(bin, share of samples)")
+    np.atleast_1d(ax)[0].set_ylabel(r"$v_y$ RMSE [m/s]")
+    np.atleast_1d(ax)[-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                                 borderaxespad=0)
     return fig
 
 
@@ -368,7 +392,7 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
           "(`make bench`); see the module docstring for the protocol.", "",
           markdown_table(rows, summary_columns()), ""]
     if "revs" in res["logs"]:
-        md += ["Real-log references (v_y RMSE over the whole run, issue 8): " + ", ".join(
+        md += ["Real-log references (v_y RMSE over the whole run, PROVENANCE.md): " + ", ".join(
             f"{k} {v}" for k, v in REVS_REFERENCES.items()) + " m/s.", ""]
         loss = revs_losses(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
                                                    if d == "revs"})
@@ -377,7 +401,8 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
         md += ["## Where the estimators lose on the real log (v_y RMSE by bin)", "",
                markdown_table(loss, list(loss[0])), ""]
         fig = fig_losses(loss)
-        fig.savefig(out_dir / "losses_revs.png", dpi=110, metadata={"Software": None})
+        fig.savefig(out_dir / "losses_revs.png", dpi=110, metadata={"Software": None},
+                    bbox_inches="tight")
         plt.close(fig)
         paths.append(out_dir / "losses_revs.png")
         fig = fig_revs(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
@@ -400,8 +425,8 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
         md += ["## Errors", ""] + [f"- {e}" for e in res["errors"]] + [""]
     (out_dir / "benchmark.md").write_text("\n".join(md))
     paths.append(out_dir / "benchmark.md")
-    fig = fig_rmse(rows)
-    fig.savefig(out_dir / "rmse_cost.png", dpi=110, metadata={"Software": None})
+    fig = fig_rmse_cost(rows)
+    fig.savefig(out_dir / "rmse_cost.png", dpi=110, metadata={"Software": None}, bbox_inches="tight")
     plt.close(fig)
     paths.append(out_dir / "rmse_cost.png")
     # metrics.json in the notebooks' format (tests/test_repository.py checks the file list)
@@ -413,7 +438,7 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
     doc = {"notebook": "benchmark", "quick": bool(res.get("quick", False)),
            "seed": int(res.get("seed", 0)),
            "metrics": {k: {"value": _jsonable(v), "unit": "", "note": ""}
-                       for k, v in key_metrics(res).items()},
+                       for k, v in {**key_metrics(res), **timing_metrics(res)}.items()},
            "claims": [], "files": names}
     (out_dir / "metrics.json").write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
     paths.append(out_dir / "metrics.json")
@@ -427,7 +452,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m vehicle_observers.bench.suite")
     ap.add_argument("--quick", action="store_true", help="short runs (CI)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=str(repo_root() / "figures" / "benchmark"))
+    ap.add_argument("--out", default=str(repo_root() / "build" / "benchmark"),
+                    help="output folder (default build/benchmark, ignored by git: wall-clock "
+                    "results change on every run)")
     ap.add_argument("--no-topics", action="store_true",
                     help="skip the per-topic speed benchmarks")
     args = ap.parse_args(argv)
@@ -447,16 +474,19 @@ def main(argv=None) -> int:
 
 
 
+#: wall-clock columns: reported by ``make bench`` and ``Report.timing``, never committed as
+#: notebook metrics (they change on every run)
+TIMING_COLUMNS = ("us_per_step", "realtime_factor", "design_s", "speedup_vs_filterpy_ekf")
+
+
 def key_metrics(res: dict) -> dict:
-    """Flat metrics for the notebook / tests: ``<dataset>.<observer>.<metric>`` for the
-    accuracy, cost and ratio columns, plus ``revs.best_causal`` (name) /
-    ``revs.best_causal_rmse_vy`` over the causal observers run on the whole real log and
-    ``min_speedup_vs_filterpy_ekf`` over the compiled causal observers (all datasets; the
-    offline RTS smoother is excluded)."""
+    """Flat accuracy metrics for the notebook / tests: ``<dataset>.<observer>.<metric>`` for
+    the accuracy and ratio columns, plus ``revs.best_causal`` (name) /
+    ``revs.best_causal_rmse_vy`` over the causal observers run on the whole real log. The
+    wall-clock columns are in :func:`timing_metrics`."""
     out = {}
     keep = ("rmse_vy", "max_vy", "rmse_beta", "rmse_r", "rmse_Ff", "rmse_Fr", "enclosure_vy",
-            "width_vy", "enclosure_r", "width_r", "us_per_step", "realtime_factor", "design_s",
-            "ratio_vy_vs_ekf", "ratio_vy_vs_rts", "speedup_vs_filterpy_ekf", "samples")
+            "width_vy", "enclosure_r", "width_r", "ratio_vy_vs_ekf", "ratio_vy_vs_rts", "samples")
     for r in res["rows"]:
         for k in keep:
             v = r.get(k)
@@ -469,6 +499,18 @@ def key_metrics(res: dict) -> dict:
         best = min(causal, key=lambda r: r["rmse_vy"])
         out["revs.best_causal"] = best["observer"]
         out["revs.best_causal_rmse_vy"] = best["rmse_vy"]
+    return out
+
+
+def timing_metrics(res: dict) -> dict:
+    """Wall-clock values ``<dataset>.<observer>.<column>`` and ``min_speedup_vs_filterpy_ekf``
+    over the compiled causal observers (all datasets; the offline RTS smoother excluded)."""
+    out = {}
+    for r in res["rows"]:
+        for k in TIMING_COLUMNS:
+            v = r.get(k)
+            if v is not None and np.isfinite(v):
+                out[f"{r['dataset']}.{r['observer']}.{k}"] = v
     sp = [r["speedup_vs_filterpy_ekf"] for r in res["rows"]
           if r["observer"] not in SLOW and r["causal"] and "speedup_vs_filterpy_ekf" in r]
     if sp:

@@ -36,7 +36,10 @@ import numpy as np
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results.rules import VERDICTS, Rule, fmt, round_sig
 
+#: one style for every figure: colour-blind-safe colour cycle (Tableau colour-blind 10),
+#: light grid, small fonts; labels use mathtext ($v_y$) and carry units
 matplotlib.rcParams.update({
+    "axes.prop_cycle": matplotlib.style.library["tableau-colorblind10"]["axes.prop_cycle"],
     "figure.dpi": 100, "savefig.dpi": 110, "figure.figsize": (9.0, 5.0), "axes.grid": True,
     "grid.alpha": 0.3, "font.size": 9, "legend.fontsize": 8, "axes.titlesize": 10,
     "lines.linewidth": 1.1, "svg.hashsalt": "vehicle-observers", "path.simplify": True,

@@ -154,13 +154,12 @@ def _true(x, expr) -> bool:
 
 
 def round_sig(x, digits: int):
-    """``x`` (number or nested list) rounded to ``digits`` significant digits."""
+    """``x`` (float or nested list) rounded to ``digits`` significant digits; integers and
+    booleans are kept exact."""
     if isinstance(x, (list, tuple)):
         return [round_sig(v, digits) for v in x]
-    if isinstance(x, bool) or not isinstance(x, (int, float)):
-        return x
-    if isinstance(x, int) and abs(x) < 10**digits:
-        return x
+    if isinstance(x, (bool, int)) or not isinstance(x, float):
+        return x  # counts and flags are exact
     x = float(x)
     if x == 0 or not math.isfinite(x):
         return x
