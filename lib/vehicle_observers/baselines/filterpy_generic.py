@@ -1,4 +1,4 @@
-"""Generic filterpy EKF / UKF baseline for any continuous-time model (mission item 7).
+"""Generic filterpy EKF / UKF baseline for any continuous-time model (every observer is compared with it).
 
 The lateral-dynamics baselines of :mod:`.baselines.kalman` are specialised (numba, exact RK4 Jacobian,
 ML tuning). This module runs the *same textbook filters* on the models of the other papers

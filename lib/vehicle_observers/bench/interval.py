@@ -15,7 +15,7 @@ from vehicle_observers.core.timing import best_time
 from vehicle_observers.observers import interval as iv
 from vehicle_observers.papers import ifqir2017 as pp
 
-TARGET_SECONDS = 2.0   # issue 4: 350 s at 1 kHz in at most 2 s on a 2-core machine
+TARGET_SECONDS = 2.0   # 350 s of driving at 1 kHz in at most 2 s on a 2-core machine
 
 
 def _best(fn, repeat=3):
