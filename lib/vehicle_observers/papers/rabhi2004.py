@@ -165,3 +165,59 @@ def part_b_run(name: str, T: float = 20.0, gains=None, errors=None, seed: int = 
     out["U_rmse_mm_mean"] = float(np.mean([out[f"U_rmse_mm_{i + 1}"] for i in range(4)]))
     out["U_rmse_pct_mean"] = float(np.mean([out[f"U_rmse_pct_{i + 1}"] for i in range(4)]))
     return out
+
+
+def part_b_paper_outputs(name: str, T: float, seed: int = 0, dt: float = dt_road,
+                         p: FullCarParams = fullcar, deflection_wheel: int | None = None):
+    """The paper's outputs (29) on road ``name``: ``(t, U, X, Yp, defl)`` with ``Yp`` (N, 10)
+    ``[x12, x22, x31]`` (wheel accelerations from the model with the road slope of each
+    sample interval, the truth's first-order hold) and ``defl`` (N,) the suspension
+    deflection ``S_i x12 - x11_i`` of wheel ``deflection_wheel`` (``None`` without it).
+    No column of ``Yp`` is a wheel displacement."""
+    _, _, t, U, X, _ = part_b_truth(name, T, seed, dt, p)
+    Ud = np.empty_like(U)
+    Ud[:-1] = np.diff(U, axis=0) / dt
+    Ud[-1] = Ud[-2]
+    Yp = _fc.outputs(X, U, Ud, p, paper=True)
+    defl = None
+    if deflection_wheel is not None:
+        defl = X[:, 4:7] @ p.S[deflection_wheel] - X[:, deflection_wheel]
+    return t, U, X, Yp, defl
+
+
+def part_b_paper_run(name: str, T: float = 20.0, deflection_wheel: int | None = None,
+                     errors=None, seed: int = 0, t_skip: float = 1.0, dt: float = dt_road,
+                     p: FullCarParams = fullcar) -> dict:
+    """Observer on the paper's outputs (29) (``deflection_wheel`` adds one suspension-
+    deflection sensor) on road ``name``; metrics after ``t_skip``: road RMSE per wheel raw
+    and modulo the road patterns of the warp modes
+    (:func:`.observers.sliding_mode.road_lost_subspace`, per sample), wheel-displacement
+    RMSE [mm] raw and modulo the warp wheel patterns, the RMS road error removed by the
+    modulo (``U_lost_rms_mm``), body-rate RMSE."""
+    t, U, X, Yp, defl = part_b_paper_outputs(name, T, seed, dt, p, deflection_wheel)
+    obs_p = p.scaled(**(errors or {}))
+    design = _smo.paper_output_design(obs_p, deflection_wheel)
+    res = _smo.run_paper_output_observer(t, Yp, obs_p, design, deflection=defl)
+    m = t >= t_skip
+    Qu = _smo.road_lost_subspace(obs_p, design)
+    Qz = np.linalg.qr(design.V[0:4])[0] if design.V.shape[1] else np.zeros((4, 0))
+    EU = (res.U - U)[m]
+    EUm = _smo.modulo_subspace(EU, Qu)
+    Ez = (res.z - X[:, 0:4])[m]
+    Ezm = _smo.modulo_subspace(Ez, Qz)
+    out = {"t": t, "U": U, "X": X, "Yp": Yp, "res": res, "design": design,
+           "inputs": ("x12", "x22", "x31") + (() if deflection_wheel is None else ("deflection",))}
+    for i in range(4):
+        rms = float(np.std(U[m, i]))
+        out[f"U_rms_mm_{i + 1}"] = 1e3 * rms
+        out[f"U_rmse_pct_{i + 1}"] = 100 * float(np.sqrt(np.mean(EU[:, i] ** 2))) / rms
+        out[f"U_mod_rmse_pct_{i + 1}"] = 100 * float(np.sqrt(np.mean(EUm[:, i] ** 2))) / rms
+        out[f"z_rmse_mm_{i + 1}"] = 1e3 * float(np.sqrt(np.mean(Ez[:, i] ** 2)))
+        out[f"z_mod_rmse_mm_{i + 1}"] = 1e3 * float(np.sqrt(np.mean(Ezm[:, i] ** 2)))
+    for key in ("U_rmse_pct", "U_mod_rmse_pct", "z_rmse_mm", "z_mod_rmse_mm"):
+        out[f"{key}_mean"] = float(np.mean([out[f"{key}_{i + 1}"] for i in range(4)]))
+    out["U_lost_rms_mm"] = 1e3 * float(np.sqrt(np.mean((EU - EUm) ** 2)))
+    out["x22_rmse"] = [_rmse(res.x22[m, j], X[m, 11 + j]) for j in range(3)]
+    out["n_unobservable"] = int(design.V.shape[1])
+    out["margin"] = design.margin
+    return out
