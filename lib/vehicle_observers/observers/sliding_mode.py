@@ -290,6 +290,42 @@ def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, ph
     return out_x2, out_x3, out_x4, out_th, out_e4, out_s
 
 
+def _sw_np(e, phi, mode):
+    """Switching function of :func:`_sw` on arrays."""
+    return np.clip(e / phi, -1.0, 1.0) if mode == SAT else np.sign(e)
+
+
+def force_observer_step(st: dict, y, u, model: ForceObserverModel, g: ForceObserverGains,
+                        dt: float) -> dict:
+    """One explicit-Euler step of observer (10) with the adaptation (20)-(22), the readable
+    numpy version of the compiled loop ``_force_observer`` (tested equal).
+
+    ``st``: ``x2`` (3,) ``[v_x, v_y, r]``, ``x3`` (2,) wheel speeds [rad/s], ``x4`` (4,)
+    forces [N], ``th`` (8,) theta, ``e4f`` (4,) filtered equivalent injection; ``y`` (5,)
+    measurements ``[v_x, v_y, r, w_f, w_r]``, ``u`` (3,) ``[delta, T_f, T_r]``. Returns the
+    next state (new dict)."""
+    mode = _mode(g.mode)
+    Q = model.as_array()
+    x2, x3, x4, th = st["x2"], st["x3"], st["x4"], st["th"]
+    Om, Hm = omega_h(u[0], Q)
+    # switching terms Lambda2 s(x~2), Lambda3 s(x~3) of (10)
+    v = np.concatenate([np.asarray(g.lam2) * _sw_np(y[0:3] - x2, np.asarray(g.phi2), mode),
+                        np.asarray(g.lam3) * _sw_np(y[3:5] - x3, np.asarray(g.phi3), mode)])
+    W = np.vstack([Om, -Hm])
+    e4 = np.linalg.solve(W.T @ W, W.T @ v)           # x~4 on the surfaces (R-A6, R-A7)
+    a = np.exp(-dt / g.tau_f)
+    e4f = a * st["e4f"] + (1 - a) * e4
+    Psi = np.empty((4, 8))
+    _psi(y[0], y[1], y[2], y[3], y[4], u[0], x4, Q, Psi)
+    transport = np.array([y[1] * y[2], -y[0] * y[2], 0.0])   # v_y r, -v_x r (R-A3)
+    inj = e4f if mode == LPF else e4
+    th_new = np.clip(th + dt * np.asarray(g.P) * (Psi.T @ e4f), g.theta_lo, g.theta_hi)
+    return {"x2": x2 + dt * (Om @ x4 + transport + v[0:3]),
+            "x3": x3 + dt * (u[1:3] / Q[6:8] - np.diag(Hm[:, 0:2]) * x4[0:2] + v[3:5]),
+            "x4": x4 + dt * (Psi @ th + np.asarray(g.k) * inj),
+            "th": th_new, "e4f": e4f}
+
+
 @dataclass
 class ForceObserverResult:
     """Trajectories of observer (10): x2 (N,3), x3 (N,2), x4 (N,4) forces [N], theta (N,8),
