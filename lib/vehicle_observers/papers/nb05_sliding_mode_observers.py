@@ -703,13 +703,14 @@ def fig_forces(man, Xs, a: dict):
     return fig
 
 
-def fig_chattering(man, Xs, A: dict, rows: list[dict], zoom=(7.0, 7.3)):
-    """1x2 axes: F_yf zoom [N] per switching mode (``A`` of :func:`force_modes`) and the
-    accuracy-vs-chattering scatter of :func:`tradeoff_study` rows (log-log, N), one marker per
-    row (legend outside the data)."""
+def fig_chattering(man, Xs, A: dict, rows: list[dict], zoom=None):
+    """1x2 axes: F_yf zoom [N] per switching mode (``A`` of :func:`force_modes`; ``zoom``
+    (t0, t1) [s], default 0.3 s from 35 % of the run) and the accuracy-vs-chattering scatter of
+    :func:`tradeoff_study` rows (log-log, N), one marker per row (legend outside the data)."""
     from matplotlib.ticker import LogLocator, NullFormatter
 
     t = man.t
+    zoom = (0.35 * t[-1], 0.35 * t[-1] + 0.3) if zoom is None else zoom
     z = (t > zoom[0]) & (t < zoom[1])
     fig, ax = plt.subplots(1, 2, figsize=(12, 3.8), gridspec_kw={"width_ratios": [1, 1.3]})
     ax[0].plot(t[z], Xs[z, 10], "k", lw=2.5, alpha=0.6, label="true")
