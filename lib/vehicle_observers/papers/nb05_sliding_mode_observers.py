@@ -229,6 +229,13 @@ def tradeoff_metrics(rows: list[dict]) -> dict:
     return out
 
 
+def tradeoff_names(scales=(1, 10)) -> list[str]:
+    """Metric names of :func:`tradeoff_metrics` for the sat rows with layer ``scales``, clean
+    then noisy, RMSE then chattering."""
+    return [f"A_tradeoff_{c}_sat_phi_{s:g}_{q}_mean" for c in ("clean", "noisy") for s in scales
+            for q in ("rmse", "chatter")]
+
+
 def tradeoff_table(rows: list[dict]) -> str:
     """Text table of :func:`tradeoff_study` rows (RMSE and chattering per force, N)."""
     head = f"{'meas':6s} {'mode':14s} " + " ".join(f"rmse_{n:>4s}" for n in R.FORCE_NAMES) \
