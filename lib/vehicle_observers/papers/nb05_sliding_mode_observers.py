@@ -645,7 +645,7 @@ def _truth_vs_est(ax, t, truth, est, title, est_label="observer", true_label="tr
     ax.set_title(title, fontsize=9)
     if ylabel:
         ax.set_ylabel(ylabel)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="best")
 
 
 def _xlabel(axes):
@@ -862,7 +862,7 @@ def fig_wheels(P: dict, road_name: str = "D", w: int = WHEEL_FR, zoom=(2.0, 2.5)
     ax[1, 1].set_ylabel(r"$\dot z_4$ error [m/s]")
     ax[1, 1].set_xlabel("$t$ [s]")
     for a_ in ax.flat:
-        a_.legend(fontsize=6, loc="upper right")
+        a_.legend(fontsize=6, loc="best")
     fig.tight_layout()
     return fig
 
@@ -913,7 +913,7 @@ def fig_road_profile(P: dict, roads=("D", "belgian"), w: int = WHEEL_FR, zoom=(2
         ax[row, 1].set_ylabel("road error [mm]")
         ax[row, 1].set_title(f"road {nm}: error (estimate - true)", fontsize=9)
         for a_ in ax[row]:
-            a_.legend(fontsize=6, loc="upper right")
+            a_.legend(fontsize=6, loc="best")
     _xlabel(ax[-1])
     fig.tight_layout()
     return fig
@@ -933,7 +933,7 @@ def fig_road_measured(Bres: dict, road_name: str = "D", w: int = WHEEL_FR, zoom=
     ax[1].plot(*decimate(tt, 1e3 * (oo["res"].U[:, w] - oo["U"][:, w])), color=CB[0], lw=0.7, label="sat")
     ax[1].set_ylabel("road error [mm]")
     for a_ in ax:
-        a_.legend(fontsize=6, loc="upper right")
+        a_.legend(fontsize=6, loc="best")
         a_.set_title(f"measured wheel displacement (easier variant), road {road_name}", fontsize=9)
     _xlabel(ax)
     fig.tight_layout()

@@ -3,8 +3,16 @@ Contact Forces and Road Profile", AVCS 2004 (hal-01967644).
 
 The paper prints **no numerical values** (no vehicle constants, gains, step size or
 error figures); what it prints is structure: dimensions of the state-space blocks of (9)
-and (26)-(30). Those are recorded here and checked against our matrices in
-``tests/test_papers_rabhi2004.py``. The numerical constants we use instead (vehicle,
+and (26)-(30), recorded here; ``tests/papers/test_rabhi2004.py`` checks our matrices against
+independent computations (the planar right-hand side, the relaxation model (8), rigid heave
+under a uniform road, the warp equilibrium with zero paper outputs).
+
+Sign slip in the printed (18) and (22): with ``theta~ = theta - theta^``,
+``Psi(X) theta - Psi(X^) theta^ = Psi(X^) theta~ + Delta Psi theta``, so
+``x~4' = -A x~4 + Psi(X^) theta~`` (the paper prints ``- Psi theta~``) and
+``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``. The observer uses this
+stabilising sign; the printed sign amounts to ``P -> -P`` and drives theta^ to its
+projection bounds (notebook 05, Exercise 3). The numerical constants we use instead (vehicle,
 tyres, suspension, gains, steps) are chosen in :mod:`..planar`, :mod:`..fullcar`,
 :mod:`..smo` and listed with their sources there.
 """
