@@ -342,8 +342,8 @@ def test_part_a_figures(truth, A, ek, rob):
     man, Xs = truth
     a = A["sat"]
     rows = rs.tradeoff_study(man, Xs, seed=0, scales=(1,))
-    for fig, n in [(rs.fig_velocities(man, Xs, a), 4), (rs.fig_wheel_speeds(man, Xs, a), 3),
-                   (rs.fig_forces(man, Xs, a), 4), (rs.fig_chattering(man, Xs, A, rows), 2),
+    for fig, n in [(rs.fig_velocities(man, Xs, a), 6), (rs.fig_wheel_speeds(man, Xs, a), 3),
+                   (rs.fig_forces(man, Xs, A), 8), (rs.fig_chattering(man, Xs, A, rows), 2),
                    (rs.fig_robustness(rob), 1), (rs.fig_ekf_forces(man, Xs, ek), 8)]:
         assert isinstance(fig, plt.Figure)
         assert len(fig.axes) == n

@@ -654,18 +654,30 @@ def _xlabel(axes):
 
 
 def fig_velocities(man, Xs, a: dict):
-    """Fig. 4 analogue (2x2 axes): inputs (steering [deg], wheel torques [100 N m]) and
-    ``x2 = (v_x, v_y, r)`` true vs observer (sat run ``a`` of :func:`force_modes`)."""
+    """Fig. 4 analogue (2x3 axes): inputs (steering [deg], wheel torques [100 N m]) and
+    ``x2 = (v_x, v_y, r)`` true vs observer (run ``a`` of :func:`force_modes`, the notebook
+    passes the sign run) on top; below, the errors of ``x2`` (log |error|, finite-time
+    reaching visible) and the wheel torques."""
     t = man.t
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6))
-    ax[0, 0].plot(*decimate(t, np.degrees(man.U[:, 0])), label="steering delta [deg]")
-    ax[0, 0].plot(*decimate(t, man.U[:, 1] / 100), label="T_f [100 N m]")
-    ax[0, 0].plot(*decimate(t, man.U[:, 2] / 100), label="T_r [100 N m]")
-    ax[0, 0].legend()
-    ax[0, 0].set_title("inputs (Fig. 4)")
-    for j, (nm, unit) in enumerate([("v_x", "m/s"), ("v_y", "m/s"), ("r", "rad/s")]):
-        _truth_vs_est(ax.flat[j + 1], t, Xs[:, 3 + j], a["res"].x2[:, j], f"{nm} [{unit}]")
+    fig, ax = plt.subplots(2, 3, figsize=(12, 6))
+    names = ((r"$v_x$", "m/s"), (r"$v_y$", "m/s"), (r"$r$", "rad/s"))
+    for j, (nm, unit) in enumerate(names):
+        _truth_vs_est(ax[0, j], t, Xs[:, 3 + j], a["res"].x2[:, j], nm, ylabel=f"{nm} [{unit}]")
+        ax[1, 1].semilogy(*decimate(t, np.abs(Xs[:, 3 + j] - a["res"].x2[:, j]) + 1e-9), color=CB[j],
+                          lw=0.7, label=f"|{nm} error| [{unit}]")
+    ax[1, 0].plot(*decimate(t, np.degrees(man.U[:, 0])), color=CB[0], label=r"steering $\delta$")
+    ax[1, 0].set_ylabel(r"$\delta$ [deg]")
+    ax[1, 0].set_title("input (Fig. 4)", fontsize=9)
+    ax[1, 1].set_ylabel("|error|")
+    ax[1, 1].set_title("velocity errors (floor 1e-9: exact zero)", fontsize=9)
+    ax[1, 2].plot(*decimate(t, man.U[:, 1]), color=CB[1], label="$T_f$")
+    ax[1, 2].plot(*decimate(t, man.U[:, 2]), "--", color=CB[2], label="$T_r$")
+    ax[1, 2].set_ylabel("wheel torque [N m]")
+    ax[1, 2].set_title("inputs (Fig. 4)", fontsize=9)
+    for a_ in ax[1]:
+        a_.legend(fontsize=6, loc="best")
     _xlabel(ax[1])
+    fig.tight_layout()
     return fig
 
 
@@ -698,15 +710,30 @@ def fig_wheel_speeds(man, Xs, a: dict, t_zoom: float = 0.4):
     return fig
 
 
-def fig_forces(man, Xs, a: dict):
-    """Fig. 6 analogue (2x2 axes): the four tyre forces [N], truth vs observer (sat)."""
+def fig_forces(man, Xs, A: dict, modes=("sign", "sat")):
+    """Fig. 6 analogue (2x4 axes): the four tyre forces [N], truth vs the observer in each of
+    ``modes`` (``A`` of :func:`force_modes`; sign is the paper's switching) on top, their
+    errors [N] below (RMSE after 1 s in the legend; error axis scaled to t >= 0.5 s)."""
     t = man.t
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    fig, ax = plt.subplots(2, 4, figsize=(14, 6), sharex=True)
     for i, nm in enumerate(R.FORCE_NAMES):
-        _truth_vs_est(ax.flat[i], t, Xs[:, 8 + i], a["res"].x4[:, i],
-                      f"{nm} [N]  RMSE {a['rmse_' + nm]:.0f} N ({a['rmse_pct_' + nm]:.2f} % of peak)",
-                      est_label="observer (sat)", true_label="true (combined-slip MF + relaxation)")
+        tex = f"$F_{{{nm[1:]}}}$"
+        ax[0, i].plot(*decimate(t, Xs[:, 8 + i]), "k", lw=2.2, alpha=0.6, label="true")
+        for j, mode in enumerate(modes):
+            o = A[mode]
+            ax[0, i].plot(*decimate(t, o["res"].x4[:, i]), "--", color=CB[j], lw=0.9, label=mode)
+            ax[1, i].plot(*decimate(t, o["res"].x4[:, i] - Xs[:, 8 + i]), color=CB[j], lw=0.7,
+                          label=f"{mode}: {o['rmse_pct_' + nm]:.2g} % of peak")
+        ax[0, i].set_title(tex, fontsize=9)
+        ax[0, i].set_ylabel(f"{tex} [N]")
+        ax[1, i].set_ylabel(f"{tex} error [N]")
+        late = t >= 0.5   # the start-up transient is clipped; the limits follow the later error
+        lim = 1.3 * max(np.max(np.abs(A[md]["res"].x4[late, i] - Xs[late, 8 + i])) for md in modes)
+        ax[1, i].set_ylim(-lim, lim)
+        for a_ in ax[:, i]:
+            a_.legend(fontsize=6, loc="best")
     _xlabel(ax[1])
+    fig.tight_layout()
     return fig
 
 
