@@ -84,13 +84,50 @@ def test_ekf_baseline(m):
     assert m["A_ekf_rule2_noisy_rmse_Fyf"] < m["A_ekf_noisy_rmse_Fyf"]
     # a mass error maps into the inferred lateral forces for the EKF as well (3.5 vs 1.9 %)
     assert m["A_ekf_robust_m_p10_pct_rmse_pct_max"] > m["A_ekf_robust_nominal_rmse_pct_max"]
-    # cost: Python filterpy EKF vs compiled SMO (measured 83 vs 1.0 us per step); loose bound
-    # because the shared machine's timings vary several-fold
-    assert m["A_ekf_us_per_step"] > 0 and m["A_smo_us_per_step"] > 0
-    assert m["A_ekf_smo_cost_ratio_per_step"] > 10.0
-    # per second of driving: the EKF makes 200 steps, the SMO 2000 (10 samples per EKF block)
-    assert m["A_ekf_smo_cost_ratio_per_second"] == pytest.approx(
-        m["A_ekf_smo_cost_ratio_per_step"] * 200 / 2000, rel=1e-9)
+    # wall-clock numbers are timings (build/timings/), never metrics
+    assert not any("us_per_step" in k or "cost_ratio" in k for k in m)
+
+
+def test_sign_headline_full_theta_and_friction_step(m):
+    """Headline with the paper's sign(): 1.6-3.2 % of peak (quick run 3.2 %) with chattering of
+    tens of N; the printed full-theta law works too (3.3 %); the friction step mu 1 -> 0.5
+    costs the non-adaptive observer about three times the adaptive one's error (30.6 vs
+    9.5 %)."""
+    assert m["A_sign_rmse_pct_max"] < 5.0
+    assert m["A_sign_chatter_max"] > 20.0
+    assert m["A_adapt_sign_full_rmse_pct_max"] < 5.0
+    assert m["A_adapt_sign_partial_rmse_pct_max"] == m["A_sign_rmse_pct_max"]
+    assert m["A_mu_sign_partial_rmse_pct_max"] < 0.5 * m["A_mu_sign_none_rmse_pct_max"]
+    assert m["A_mu_sat_partial_rmse_pct_max"] < 0.5 * m["A_mu_sat_none_rmse_pct_max"]
+
+
+def test_paper_outputs_road_and_wheels(m):
+    """Observer on the paper's outputs (29): two lost directions; road modulo the warp
+    patterns 0.7-1.7 % of RMS (quick), raw 7-15 %; one deflection sensor restores them
+    (1.5-2.2 % raw)."""
+    for road in ("D", "belgian"):
+        assert m[f"B_paper_{road}_n_unobservable"] == 2 and m[f"B_defl_{road}_n_unobservable"] == 0
+        assert m[f"B_paper_{road}_U_mod_rmse_pct_mean"] < 3.0
+        assert m[f"B_paper_{road}_U_rmse_pct_mean"] > 2 * m[f"B_paper_{road}_U_mod_rmse_pct_mean"]
+        assert m[f"B_defl_{road}_U_rmse_pct_mean"] < 4.0
+        assert m[f"B_defl_{road}_z_rmse_mm_mean"] < m[f"B_paper_{road}_z_rmse_mm_mean"]
+    assert m["B_paper_x22_measured"] == 1.0
+
+
+def test_exercise_solutions(m):
+    """Exercise 1: a 10x wider layer: clean data, more error (lag) and the same step-to-step
+    change (3.04 N both, quick run); noisy data, less error and less chattering (64 -> 32 N,
+    25 -> 6.8 N). Exercise 2: the
+    warp state has zero paper outputs and two directions are lost. Exercise 3: the printed
+    (flipped) adaptation sign does far worse than the stabilising one."""
+    assert m["A_tradeoff_clean_sat_phi_10_rmse_mean"] > m["A_tradeoff_clean_sat_phi_1_rmse_mean"]
+    assert m["A_tradeoff_clean_sat_phi_10_chatter_mean"] == pytest.approx(
+        m["A_tradeoff_clean_sat_phi_1_chatter_mean"], rel=0.05)
+    assert m["A_tradeoff_noisy_sat_phi_10_rmse_mean"] < 0.7 * m["A_tradeoff_noisy_sat_phi_1_rmse_mean"]
+    assert m["A_tradeoff_noisy_sat_phi_10_chatter_mean"] < 0.5 * m["A_tradeoff_noisy_sat_phi_1_chatter_mean"]
+    assert m["ex_warp_max_output"] < 1e-9 and m["ex_warp_max_x11"] == 1.0
+    assert m["ex_warp_n_unobservable"] == 2
+    assert m["ex_adapt_flipped_rmse_pct_max"] > 3 * m["ex_adapt_stabilising_rmse_pct_max"]
 
 
 def test_model_and_road_generator(m):
@@ -123,9 +160,16 @@ def test_road_robustness_and_noise(m):
 
 def test_claims_and_figures(m):
     doc = m["_doc"]
-    items = {c["item"] for c in doc["claims"]}
-    assert {"Figs. 4-5", "Fig. 6", "Fig. 8", "Fig. 9", "Fig. 10", "Fig. 7",
-            "EKF baseline, Part A forces"} <= items
+    claims = {c["item"]: c for c in doc["claims"]}
+    assert {"Figs. 4-5", "Fig. 6", "Fig. 6, boundary layer", "(20)-(22) full theta",
+            "Sec. V robustness", "Sec. V road condition", "Fig. 8", "Fig. 9", "Fig. 10", "Fig. 7",
+            "EKF baseline, Part A forces"} <= set(claims)
+    for c in doc["claims"]:
+        assert c["rule"] != "(hand-written verdict)", c["item"]
+    # Fig. 9 compares measured body rates; Figs. 8 and 10 hold only modulo lost directions
+    for item in ("Fig. 8", "Fig. 9", "Fig. 10"):
+        assert claims[item]["proves_little"], item
+    assert claims["Fig. 6"]["value"] == m["A_sign_rmse_pct_max"]
     for c in doc["claims"]:
         if c["figure"]:
             assert (m["_dir"] / f"{c['figure']}.png").exists()

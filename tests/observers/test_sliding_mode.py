@@ -185,3 +185,96 @@ def test_road_observer_bad_inputs():
     with pytest.raises(ValueError, match="lpf"):
         smo.run_road_observer(t, np.zeros((100, 10)), FP,
                               smo.RoadObserverGains().with_(mode="lpf"))
+
+
+@pytest.mark.parametrize("mode", ["sign", "sat", "lpf"])
+def test_readable_force_step_equals_compiled_loop(mode):
+    """force_observer_step (numpy, shown in notebook 05) and the compiled loop give the same
+    trajectory, all 8 theta entries adapted, from wrong initial states."""
+    t, U, Xs = straight_run(0.2, Tf=200.0)
+    U[:, 0] = 0.02 * np.sin(2 * np.pi * t)
+    Xs = pl.simulate(pl.free_rolling_state(15.0, P), U, DT, P)
+    Y = smo.measurements_from_truth(Xs)
+    model = smo.ForceObserverModel.from_params(P)
+    g = smo.ForceObserverGains(P=(5.0,) * 8, mode=smo.MODES[mode])
+    x2_0, x3_0 = Y[0, :3] + [1.0, 0.5, 0.1], Y[0, 3:] + 5.0
+    r = smo.run_force_observer(t, Y, U, model, g, x2_0=x2_0, x3_0=x3_0)
+    st = {"x2": x2_0, "x3": x3_0, "x4": np.zeros(4), "th": model.theta0(), "e4f": np.zeros(4)}
+    for k in range(len(t) - 1):
+        st = smo.force_observer_step(st, Y[k], U[k], model, g, DT)
+    np.testing.assert_allclose(st["x4"], r.x4[-1], rtol=1e-10, atol=1e-8)
+    np.testing.assert_allclose(st["th"], r.theta[-1], rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(st["x2"], r.x2[-1], rtol=1e-12, atol=1e-12)
+
+
+def test_paper_output_design_loses_exactly_the_warp():
+    """Paper outputs (29): the unobservable subspace is 2-D, the static warp x11 = w
+    (K21 w = 0) and its drift; its x11 part contains fullcar.warp_vector; the quotient is
+    Hurwitz. One deflection sensor on any wheel makes the pair observable."""
+    p = fc.FullCarParams()
+    d = smo.paper_output_design(p)
+    assert d.V.shape == (11, 2) and d.margin > 0
+    w = fc.warp_vector(p)
+    e = np.zeros(11)
+    e[0:4] = w / np.linalg.norm(w)
+    assert np.linalg.norm(d.V @ (d.V.T @ e) - e) < 1e-8          # w lies in span V
+    assert np.allclose(d.C @ d.V, 0, atol=1e-12)
+    # the body rows of A see nothing of V: A V stays in V (invariant subspace)
+    AV = d.A @ d.V
+    assert np.linalg.norm(AV - d.V @ (d.V.T @ AV)) < 1e-8 * np.linalg.norm(d.A)
+    for i in range(4):
+        di = smo.paper_output_design(p, deflection_wheel=i)
+        assert di.V.shape == (11, 0) and di.margin > 0
+    with pytest.raises(ValueError, match="deflection_wheel"):
+        smo.paper_output_design(p, deflection_wheel=4)
+
+
+def test_readable_paper_output_step_equals_run():
+    """paper_output_step (numpy) repeated equals run_paper_output_observer's compiled loop."""
+    p = fc.FullCarParams()
+    d = smo.paper_output_design(p, deflection_wheel=3)
+    rng = np.random.default_rng(0)
+    N = 200
+    t = np.arange(N) * 2e-4
+    Yp = rng.normal(size=(N, 10)) * 1e-2
+    defl = rng.normal(size=N) * 1e-3
+    r = smo.run_paper_output_observer(t, Yp, p, d, deflection=defl)
+    xo = np.concatenate([np.zeros(8), Yp[0, 3:6]])
+    for k in range(N - 1):
+        y = np.concatenate([Yp[k, 3:6], [p.S[3] @ Yp[k, 0:3] - defl[k]]])
+        xo = smo.paper_output_step(xo, np.concatenate([Yp[k, 6:10], Yp[k, 0:3]]), y, d, 2e-4)
+    np.testing.assert_allclose(xo[0:4], r.z[-1], rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(xo[4:8], r.v[-1], rtol=1e-10, atol=1e-14)
+    with pytest.raises(ValueError, match="deflection"):
+        smo.run_paper_output_observer(t, Yp, p, d)
+
+
+def test_paper_output_observer_road_known_answer():
+    """Static road U0 with the car at its equilibrium, observer started at the truth: the
+    accelerations are zero, the body at rest, and (36)-(37) return U0 after the tyre time
+    constant c_t/k_t (modulo nothing: one deflection sensor)."""
+    p = fc.FullCarParams()
+    U0 = np.array([0.01, -0.02, 0.015, 0.005])
+    q = fc.static_deflection(U0, p)
+    N = 400
+    t = np.arange(N) * 2e-4
+    Yp = np.tile(np.concatenate([q[4:7], np.zeros(3), np.zeros(4)]), (N, 1))
+    d = smo.paper_output_design(p, deflection_wheel=0)
+    defl = np.full(N, p.S[0] @ q[4:7] - q[0])
+    r = smo.run_paper_output_observer(t, Yp, p, d, x0=np.concatenate([q[0:4], np.zeros(7)]),
+                                      deflection=defl)
+    np.testing.assert_allclose(r.z[-1], q[0:4], atol=1e-12)
+    np.testing.assert_allclose(r.U[-1], U0, rtol=1e-9, atol=1e-12)
+
+
+def test_modulo_subspace_and_road_lost_subspace():
+    E = np.array([[1.0, 2.0, 3.0, 4.0], [0.0, 1.0, 0.0, 0.0]])
+    Q = np.array([[1.0], [0.0], [0.0], [0.0]])
+    np.testing.assert_allclose(smo.modulo_subspace(E, Q), [[0, 2, 3, 4], [0, 1, 0, 0]])
+    p = fc.FullCarParams()
+    Qu = smo.road_lost_subspace(p, smo.paper_output_design(p))
+    uw = (np.array(p.k_s) + np.array(p.k_t)) / np.array(p.k_t) * fc.warp_vector(p)
+    uw /= np.linalg.norm(uw)
+    assert Qu.shape == (4, 2)
+    assert np.linalg.norm(uw - Qu @ (Qu.T @ uw)) < 1e-9      # the static warp road is lost
+    assert smo.road_lost_subspace(p, smo.paper_output_design(p, 3)).shape == (4, 0)

@@ -290,6 +290,42 @@ def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, ph
     return out_x2, out_x3, out_x4, out_th, out_e4, out_s
 
 
+def _sw_np(e, phi, mode):
+    """Switching function of :func:`_sw` on arrays."""
+    return np.clip(e / phi, -1.0, 1.0) if mode == SAT else np.sign(e)
+
+
+def force_observer_step(st: dict, y, u, model: ForceObserverModel, g: ForceObserverGains,
+                        dt: float) -> dict:
+    """One explicit-Euler step of observer (10) with the adaptation (20)-(22), the readable
+    numpy version of the compiled loop ``_force_observer`` (tested equal).
+
+    ``st``: ``x2`` (3,) ``[v_x, v_y, r]``, ``x3`` (2,) wheel speeds [rad/s], ``x4`` (4,)
+    forces [N], ``th`` (8,) theta, ``e4f`` (4,) filtered equivalent injection; ``y`` (5,)
+    measurements ``[v_x, v_y, r, w_f, w_r]``, ``u`` (3,) ``[delta, T_f, T_r]``. Returns the
+    next state (new dict)."""
+    mode = _mode(g.mode)
+    Q = model.as_array()
+    x2, x3, x4, th = st["x2"], st["x3"], st["x4"], st["th"]
+    Om, Hm = omega_h(u[0], Q)
+    # switching terms Lambda2 s(x~2), Lambda3 s(x~3) of (10)
+    v = np.concatenate([np.asarray(g.lam2) * _sw_np(y[0:3] - x2, np.asarray(g.phi2), mode),
+                        np.asarray(g.lam3) * _sw_np(y[3:5] - x3, np.asarray(g.phi3), mode)])
+    W = np.vstack([Om, -Hm])
+    e4 = np.linalg.solve(W.T @ W, W.T @ v)           # x~4 on the surfaces (R-A6, R-A7)
+    a = np.exp(-dt / g.tau_f)
+    e4f = a * st["e4f"] + (1 - a) * e4
+    Psi = np.empty((4, 8))
+    _psi(y[0], y[1], y[2], y[3], y[4], u[0], x4, Q, Psi)
+    transport = np.array([y[1] * y[2], -y[0] * y[2], 0.0])   # v_y r, -v_x r (R-A3)
+    inj = e4f if mode == LPF else e4
+    th_new = np.clip(th + dt * np.asarray(g.P) * (Psi.T @ e4f), g.theta_lo, g.theta_hi)
+    return {"x2": x2 + dt * (Om @ x4 + transport + v[0:3]),
+            "x3": x3 + dt * (u[1:3] / Q[6:8] - np.diag(Hm[:, 0:2]) * x4[0:2] + v[3:5]),
+            "x4": x4 + dt * (Psi @ th + np.asarray(g.k) * inj),
+            "th": th_new, "e4f": e4f}
+
+
 @dataclass
 class ForceObserverResult:
     """Trajectories of observer (10): x2 (N,3), x3 (N,2), x4 (N,4) forces [N], theta (N,8),
@@ -573,3 +609,211 @@ def run_road_observer(t, Y, p, gains: RoadObserverGains, z0=None) -> RoadObserve
         np.ascontiguousarray(K[4:, :4]), np.ascontiguousarray(K[4:, 4:]), float(g.h22),
         float(g.phi22), z0.copy())
     return RoadObserverResult(t, z, v, zeta, U, s1, xb)
+
+
+# ============================================================ Part B, the paper's outputs ===
+# With the paper's outputs (29) y = [x12, x22, x31] the measured wheel accelerations x31
+# remove the road from the wheel kinematics (x11' = x21, x21' = x31), so the road is an
+# unknown input recovered afterwards from the wheel equation (36)-(37). The body line of (30)
+# couples the wheel states to the measured body rates:
+#     x22' = -M2^-1 (C21 x21 + C22 x22 + K21 x11 + K22 x12).
+# One direction is lost: the static warp offset x11 = w with K21 w = 0 (fullcar.warp_vector)
+# changes none of the outputs. The observer below is designed on the observable quotient
+# (the state space modulo the unobservable subspace) and leaves the warp component of its
+# error where it starts; an added suspension-deflection sensor on one wheel removes it.
+
+
+@dataclass(frozen=True)
+class PaperOutputDesign:
+    """Linear injection observer for the wheel states on the paper's outputs (29).
+
+    State ``xo = [x11 (4), x21 (4), x22 (3)]`` (11,); inputs ``w = [x31 (4), x12 (3)]``;
+    outputs ``x22`` (3,) plus, with ``deflection_wheel = i``, the wheel displacement
+    ``x11_i = S_i x12 - d_i`` from a suspension-deflection sensor ``d_i``.
+    ``A`` (11, 11), ``B`` (11, 7), ``C`` (p, 11), gain ``L`` (11, p), ``V`` (11, k) an
+    orthonormal basis of the unobservable subspace (k = 2 on the paper's outputs: the static
+    warp offset ``x11 = w`` and the warp drift ``x11 = a + t w, x21 = w`` with
+    ``K21 a = -C21 w``; k = 0 with the added sensor), ``eig_quotient`` the eigenvalues of the
+    error dynamics on the quotient [1/s] (all with negative real part: checked at design).
+    ``tau_w`` [s]: the estimate's component along ``V`` (which no output corrects) is pulled
+    to zero with this time constant (a zero-mean warp prior); this leaves the error modulo
+    ``V`` unchanged, because ``V`` is invariant under ``A - LC``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    L: np.ndarray
+    V: np.ndarray
+    eig_quotient: np.ndarray
+    deflection_wheel: int | None
+    tau_w: float = 1.0
+
+    @property
+    def margin(self) -> float:
+        """Stability margin ``-max Re(eig)`` [1/s] of the quotient error dynamics."""
+        return float(-np.max(np.real(self.eig_quotient)))
+
+
+def paper_output_design(p, deflection_wheel: int | None = None, q: float = 1.0,
+                        r: float = 1e-6, tol: float = 1e-9) -> PaperOutputDesign:
+    """Design the observer of :class:`PaperOutputDesign` for the full car ``p``
+    (:class:`~vehicle_observers.models.fullcar.FullCarParams`) on the paper's outputs (29).
+
+    Gain: Kalman-Bucy (dual Riccati) on the observable quotient ``(T'AT, CT)`` with process
+    intensity ``q I`` and output intensity ``r I``, lifted as ``L = T L_q`` (``T`` the
+    orthonormal complement of the unobservable subspace ``V``, found from the SVD of the
+    observability matrix with relative tolerance ``tol``). Certified after the solve: the
+    quotient error matrix ``T'(A - LC)T`` must be Hurwitz and ``(A - LC) V = 0`` (the warp
+    component stays constant); ``ValueError`` otherwise."""
+    from scipy.linalg import null_space, solve_continuous_are
+
+    M, Cm, K, _, _ = p.matrices()
+    M2 = np.diag(M)[4:]
+    A = np.zeros((11, 11))
+    A[0:4, 4:8] = np.eye(4)
+    A[8:11, 0:4] = -K[4:, :4] / M2[:, None]
+    A[8:11, 4:8] = -Cm[4:, :4] / M2[:, None]
+    A[8:11, 8:11] = -Cm[4:, 4:] / M2[:, None]
+    B = np.zeros((11, 7))
+    B[4:8, 0:4] = np.eye(4)
+    B[8:11, 4:7] = -K[4:, 4:] / M2[:, None]
+    rows = [np.hstack([np.zeros((3, 8)), np.eye(3)])]
+    if deflection_wheel is not None:
+        if deflection_wheel not in range(4):
+            raise ValueError(f"deflection_wheel must be 0..3 (RL, RR, FL, FR), got {deflection_wheel}")
+        e = np.zeros((1, 11))
+        e[0, deflection_wheel] = 1.0
+        rows.append(e)
+    C = np.vstack(rows)
+    a = np.max(np.abs(A))  # scaled powers: the observability matrix stays well conditioned
+    O = np.vstack([C @ np.linalg.matrix_power(A / a, k) for k in range(11)])
+    V = null_space(O, rcond=tol)
+    T = null_space(V.T) if V.shape[1] else np.eye(11)
+    Aq, Cq = T.T @ A @ T, C @ T
+    Pq = solve_continuous_are(Aq.T, Cq.T, q * np.eye(Aq.shape[0]), r * np.eye(C.shape[0]))
+    L = T @ (Pq @ Cq.T / r)
+    eq = np.linalg.eigvals(T.T @ (A - L @ C) @ T)
+    if np.max(np.real(eq)) >= 0:
+        raise ValueError(f"paper-output observer: quotient error matrix not Hurwitz, "
+                         f"max Re(eig) = {np.max(np.real(eq)):.3g} 1/s")
+    if V.shape[1]:
+        leak = np.max(np.abs(T.T @ (A - L @ C) @ V))
+        if leak > 1e-6 * np.max(np.abs(A - L @ C)):
+            raise ValueError(f"paper-output observer: the unobservable subspace is not invariant "
+                             f"under A - LC (coupling {leak:.3g})")
+    return PaperOutputDesign(A, B, C, L, V, eq, deflection_wheel)
+
+
+def paper_output_step(xo, w, y, d: PaperOutputDesign, dt: float):
+    """One explicit-Euler step of the observer, readable version of :func:`_lti_run`:
+    ``xo + dt (A xo + B w + L (y - C xo) - V V' xo / tau_w)``. ``xo`` (11,), ``w = [x31, x12]`` (7,),
+    ``y`` (p,) the measured outputs."""
+    leak = d.V @ (d.V.T @ xo) / d.tau_w
+    return xo + dt * (d.A @ xo + d.B @ w + d.L @ (y - d.C @ xo) - leak)
+
+
+@njit(cache=True)
+def _lti_run(x0, F, G, Wk):
+    """``x_{k+1} = F x_k + G w_k`` over the rows of ``Wk`` (N, m); returns (N, n)."""
+    N = Wk.shape[0]
+    n = x0.shape[0]
+    X = np.empty((N, n))
+    x = x0.copy()
+    for k in range(N):
+        X[k] = x
+        x = F @ x + G @ Wk[k]
+    return X
+
+
+@dataclass
+class PaperOutputResult:
+    """Trajectories of the paper-output observer: ``z`` (N, 4) wheel displacements [m],
+    ``v`` (N, 4) wheel velocities [m/s], ``x22`` (N, 3) body rates, ``zeta`` (N, 4) road
+    force [N] (36), ``U`` (N, 4) road elevation [m] (37)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    v: np.ndarray
+    x22: np.ndarray
+    zeta: np.ndarray
+    U: np.ndarray
+
+
+def run_paper_output_observer(t, Yp, p, design: PaperOutputDesign, x0=None,
+                              deflection=None) -> PaperOutputResult:
+    """Run the observer of :func:`paper_output_design` on the paper's outputs
+    ``Yp`` (N, 10) = ``fullcar.outputs(paper=True)`` ``[x12 (3), x22 (3), x31 (4)]`` and,
+    if the design has a deflection sensor, ``deflection`` (N,) = ``S_i x12 - x11_i`` [m].
+    ``p`` the observer-model constants. Explicit Euler at the sample step (the same step as
+    :func:`paper_output_step`), ``x0`` (11,) the initial estimate (default zero wheel
+    states, measured body rates). The road force is the wheel line of (24)-(29) solved
+    for ``zeta``: ``zeta = M1 x31 + C11 x21 + C12 x22 + K11 x11 + K12 x12`` (36), and
+    the road elevation follows from (37) integrated exactly over each step."""
+    t = np.asarray(t, dtype=float)
+    Yp = np.ascontiguousarray(Yp, dtype=float)
+    if Yp.ndim != 2 or Yp.shape[1] != 10:
+        raise ValueError(f"Yp must be (N, 10) [x12 (3), x22 (3), x31 (4)], got {Yp.shape}")
+    if t.shape != (Yp.shape[0],):
+        raise ValueError(f"t must be (N,) with N={Yp.shape[0]}, got {t.shape}")
+    dt = float(t[1] - t[0])
+    if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
+        raise ValueError("t must be uniformly increasing (constant step)")
+    bad = ~np.all(np.isfinite(Yp), axis=1)
+    if bad.any():
+        raise ValueError(f"Yp row {int(np.argmax(bad))} is not finite")
+    x12, x22, acc = Yp[:, 0:3], Yp[:, 3:6], Yp[:, 6:10]
+    y = x22
+    if design.deflection_wheel is not None:
+        if deflection is None or np.shape(deflection) != (len(t),):
+            raise ValueError(f"design has a deflection sensor on wheel {design.deflection_wheel}: "
+                             f"deflection must be (N,) = ({len(t)},)")
+        i = design.deflection_wheel
+        y = np.column_stack([x22, p.S[i] @ x12.T - np.asarray(deflection, dtype=float)])
+    d = design
+    F = np.eye(11) + dt * (d.A - d.L @ d.C - d.V @ d.V.T / d.tau_w)
+    G = dt * np.hstack([d.B, d.L])
+    if x0 is None:
+        x0 = np.concatenate([np.zeros(8), x22[0]])
+    X = _lti_run(np.asarray(x0, dtype=float), F, G, np.ascontiguousarray(np.hstack([acc, x12, y])))
+    M, Cm, K, A11, B11 = p.matrices()
+    z, v = X[:, 0:4], X[:, 4:8]
+    zeta = (acc * np.diag(M)[:4] + v @ Cm[:4, :4].T + x22 @ Cm[:4, 4:].T + z @ K[:4, :4].T
+            + x12 @ K[:4, 4:].T)
+    kt, ct = np.diag(A11), np.diag(B11)
+    e = np.exp(-dt * kt / ct)
+    U = _first_order_zoh(zeta / kt, e)
+    return PaperOutputResult(t, z, v, X[:, 8:11], zeta, U)
+
+
+@njit(cache=True)
+def _first_order_zoh(u, e):
+    """``U_{k+1} = e U_k + (1 - e) u_k`` per column, ``U_0 = 0``: (37) exact for ``zeta``
+    held over each step. u (N, m), e (m,)."""
+    N, m = u.shape
+    U = np.zeros((N, m))
+    for k in range(N - 1):
+        U[k + 1] = e * U[k] + (1.0 - e) * u[k]
+    return U
+
+
+def road_lost_subspace(p, design: PaperOutputDesign) -> np.ndarray:
+    """Orthonormal basis (4, k) of the road patterns that carry the unobservable wheel
+    states ``V`` of ``design``: a state error ``e`` in ``V`` gives the road-force error
+    ``K11 e_x11 + C11 e_x21`` (36) and, through (37), the road error ``K_t^-1`` times it
+    (for a constant force). With the static warp alone this is
+    ``U_w = K_t^-1 (K_s + K_t) w``."""
+    from scipy.linalg import orth
+
+    M, Cm, K, A11, _ = p.matrices()
+    if design.V.shape[1] == 0:
+        return np.zeros((4, 0))
+    Z = np.linalg.solve(A11, K[:4, :4] @ design.V[0:4] + Cm[:4, :4] @ design.V[4:8])
+    return orth(Z)
+
+
+def modulo_subspace(E, Q) -> np.ndarray:
+    """``E`` (N, m) with its component in the span of the orthonormal columns of ``Q``
+    (m, k) removed per row: the error modulo the lost directions."""
+    E = np.asarray(E, dtype=float)
+    Q = np.asarray(Q, dtype=float).reshape(E.shape[1], -1)
+    return E - (E @ Q) @ Q.T

@@ -3,8 +3,16 @@ Contact Forces and Road Profile", AVCS 2004 (hal-01967644).
 
 The paper prints **no numerical values** (no vehicle constants, gains, step size or
 error figures); what it prints is structure: dimensions of the state-space blocks of (9)
-and (26)-(30). Those are recorded here and checked against our matrices in
-``tests/test_papers_rabhi2004.py``. The numerical constants we use instead (vehicle,
+and (26)-(30), recorded here; ``tests/papers/test_rabhi2004.py`` checks our matrices against
+independent computations (the planar right-hand side, the relaxation model (8), rigid heave
+under a uniform road, the warp equilibrium with zero paper outputs).
+
+Sign slip in the printed (18) and (22): with ``theta~ = theta - theta^``,
+``Psi(X) theta - Psi(X^) theta^ = Psi(X^) theta~ + Delta Psi theta``, so
+``x~4' = -A x~4 + Psi(X^) theta~`` (the paper prints ``- Psi theta~``) and
+``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``. The observer uses this
+stabilising sign; the printed sign amounts to ``P -> -P`` and drives theta^ to its
+projection bounds (notebook 05, Exercise 3). The numerical constants we use instead (vehicle,
 tyres, suspension, gains, steps) are chosen in :mod:`..planar`, :mod:`..fullcar`,
 :mod:`..smo` and listed with their sources there.
 """
@@ -67,6 +75,25 @@ def part_a_truth(T: float = 20.0, dt: float = dt_force, p: PlanarParams = planar
     man = _pl.paper_manoeuvre(T, dt)
     Xs = _pl.simulate(_pl.free_rolling_state(man.v0, p), man.U, dt, p)
     return man, Xs
+
+
+def part_a_truth_mu_step(T: float = 20.0, mu_after: float = 0.5, t_step: float | None = None,
+                         dt: float = dt_force, p: PlanarParams = planar):
+    """Part A truth with a road-friction step ``mu: p.mu -> mu_after`` at ``t_step`` s
+    (default ``T/2``): the same manoeuvre, simulated in two pieces (the state is continuous
+    across the step). Returns ``(man, Xs)`` like :func:`part_a_truth`."""
+    man = _pl.paper_manoeuvre(T, dt)
+    k = int(round((T / 2 if t_step is None else t_step) / dt))
+    if not 0 < k < len(man.t) - 1:
+        raise ValueError(f"t_step must lie inside (0, {T}) s, got {t_step}")
+    X1 = _pl.simulate(_pl.free_rolling_state(man.v0, p), man.U[:k + 1], dt, p)
+    X2 = _pl.simulate(X1[-1], man.U[k:], dt, p.with_(mu=mu_after))
+    return man, np.vstack([X1[:-1], X2])
+
+
+#: the printed adaptation (20)-(22) adapts all 8 entries of theta; the default
+#: ``force_gains`` adapts only the F0/sigma entries
+P_FULL = (5.0,) * 8
 
 
 def part_a_run(man, Xs, gains=None, errors=None, noise=None, seed: int = 0,
@@ -164,4 +191,61 @@ def part_b_run(name: str, T: float = 20.0, gains=None, errors=None, seed: int = 
     out["x22_rmse"] = [_rmse(res.x22[m, j], X[m, 11 + j]) for j in range(3)]
     out["U_rmse_mm_mean"] = float(np.mean([out[f"U_rmse_mm_{i + 1}"] for i in range(4)]))
     out["U_rmse_pct_mean"] = float(np.mean([out[f"U_rmse_pct_{i + 1}"] for i in range(4)]))
+    return out
+
+
+def part_b_paper_outputs(name: str, T: float, seed: int = 0, dt: float = dt_road,
+                         p: FullCarParams = fullcar, deflection_wheel: int | None = None):
+    """The paper's outputs (29) on road ``name``: ``(t, U, X, Yp, defl)`` with ``Yp`` (N, 10)
+    ``[x12, x22, x31]`` (wheel accelerations from the model with the road slope of each
+    sample interval, the truth's first-order hold) and ``defl`` (N,) the suspension
+    deflection ``S_i x12 - x11_i`` of wheel ``deflection_wheel`` (``None`` without it).
+    No column of ``Yp`` is a wheel displacement."""
+    _, _, t, U, X, _ = part_b_truth(name, T, seed, dt, p)
+    Ud = np.empty_like(U)
+    Ud[:-1] = np.diff(U, axis=0) / dt
+    Ud[-1] = Ud[-2]
+    Yp = _fc.outputs(X, U, Ud, p, paper=True)
+    defl = None
+    if deflection_wheel is not None:
+        defl = X[:, 4:7] @ p.S[deflection_wheel] - X[:, deflection_wheel]
+    return t, U, X, Yp, defl
+
+
+def part_b_paper_run(name: str, T: float = 20.0, deflection_wheel: int | None = None,
+                     errors=None, seed: int = 0, t_skip: float = 1.0, dt: float = dt_road,
+                     p: FullCarParams = fullcar) -> dict:
+    """Observer on the paper's outputs (29) (``deflection_wheel`` adds one suspension-
+    deflection sensor) on road ``name``; metrics after ``t_skip``: road RMSE per wheel raw
+    and modulo the road patterns of the warp modes
+    (:func:`.observers.sliding_mode.road_lost_subspace`, per sample), wheel-displacement
+    RMSE [mm] raw and modulo the warp wheel patterns, the RMS road error removed by the
+    modulo (``U_lost_rms_mm``), body-rate RMSE."""
+    t, U, X, Yp, defl = part_b_paper_outputs(name, T, seed, dt, p, deflection_wheel)
+    obs_p = p.scaled(**(errors or {}))
+    design = _smo.paper_output_design(obs_p, deflection_wheel)
+    res = _smo.run_paper_output_observer(t, Yp, obs_p, design, deflection=defl)
+    m = t >= t_skip
+    Qu = _smo.road_lost_subspace(obs_p, design)
+    Qz = np.linalg.qr(design.V[0:4])[0] if design.V.shape[1] else np.zeros((4, 0))
+    EU = (res.U - U)[m]
+    EUm = _smo.modulo_subspace(EU, Qu)
+    Ez = (res.z - X[:, 0:4])[m]
+    Ezm = _smo.modulo_subspace(Ez, Qz)
+    out = {"t": t, "U": U, "X": X, "Yp": Yp, "res": res, "design": design,
+           "inputs": ("x12", "x22", "x31") + (() if deflection_wheel is None else ("deflection",))}
+    for i in range(4):
+        rms = float(np.std(U[m, i]))
+        out[f"U_rms_mm_{i + 1}"] = 1e3 * rms
+        out[f"U_rmse_pct_{i + 1}"] = 100 * float(np.sqrt(np.mean(EU[:, i] ** 2))) / rms
+        out[f"U_mod_rmse_pct_{i + 1}"] = 100 * float(np.sqrt(np.mean(EUm[:, i] ** 2))) / rms
+        out[f"z_rmse_mm_{i + 1}"] = 1e3 * float(np.sqrt(np.mean(Ez[:, i] ** 2)))
+        out[f"z_mod_rmse_mm_{i + 1}"] = 1e3 * float(np.sqrt(np.mean(Ezm[:, i] ** 2)))
+    for key in ("U_rmse_pct", "U_mod_rmse_pct", "z_rmse_mm", "z_mod_rmse_mm"):
+        out[f"{key}_mean"] = float(np.mean([out[f"{key}_{i + 1}"] for i in range(4)]))
+    out["z_rms_mm_mean"] = 1e3 * float(np.mean(np.std(X[m, 0:4], axis=0)))
+    out["U_lost_rms_mm"] = 1e3 * float(np.sqrt(np.mean((EU - EUm) ** 2)))
+    out["x22_rmse"] = [_rmse(res.x22[m, j], X[m, 11 + j]) for j in range(3)]
+    out["n_unobservable"] = int(design.V.shape[1])
+    out["margin"] = design.margin
     return out
