@@ -22,6 +22,7 @@ from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.observers.differentiators import levant_differentiator
 from vehicle_observers.papers import yacine2015
+from vehicle_observers.results.rules import round_sig
 
 #: samples before this time [s] are excluded from "after convergence" metrics
 T_SETTLE = 5.0
@@ -245,7 +246,8 @@ def bound_study(base: DriveLog, alphas=(1e-3, 1.0, 2.0), t1: float = 40.0,
                 config=None) -> list[dict]:
     """Bound (34) for several ``alpha`` (design ``config``, default :data:`DISK_ONLY`) on the
     TS-exact noise-free replay ``[12 s, t1]`` of ``base`` (:func:`theory_check`): the largest
-    ratio ``||e|| / bound``, the bound at the end of the horizon and ``t_informative``."""
+    ratio ``||e|| / bound``, the bound at the end of the horizon and ``t_informative``; the
+    full :func:`theory_check` result under ``"check"`` (for :func:`fig_bound`)."""
     config = DISK_ONLY if config is None else config
     rows = []
     for a in alphas:
@@ -254,7 +256,7 @@ def bound_study(base: DriveLog, alphas=(1e-3, 1.0, 2.0), t1: float = 40.0,
         rows.append({"alpha": a, "c": d.c, "P_condition": d.alpha2 / d.alpha1,
                      **{k: tc[k] for k in ("T", "horizon", "max_ratio", "max_ratio_iss", "e0",
                                            "bound_end", "err_after_5s", "t_informative",
-                                           "truth_inside_sector")}})
+                                           "truth_inside_sector")}, "check": tc})
     return rows
 
 
@@ -317,7 +319,7 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
         axm.set_title(track.name)
         axm.set_xlabel("$x$ [m]")
         axm.set_ylabel("$y$ [m]")
-        axm.legend(loc="upper left", bbox_to_anchor=(0, -0.12))
+        axm.legend(loc="upper left", bbox_to_anchor=(0, -0.2))
         for ax, (lab, yv) in zip(axes[:, 1], panels, strict=True):
             tt, yy = decimate(t, yv)
             ax.plot(tt, yy)
@@ -388,18 +390,18 @@ def fig_bound(checks: list[dict]):
                                  squeeze=False)
         for ax, tc in zip(axes[0], checks, strict=True):
             t = tc["t"]
-            for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C3")),
-                                 ("bound_iss", "ISS bound (40)", dict(c="C1", ls=":")),
+            for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C1", lw=1.6)),
+                                 ("bound_iss", "ISS bound (40)", dict(c="C4", ls=":", lw=1.6)),
                                  ("err_norm", r"$\|e(t)\|$ simulated", dict(c="k")),
                                  ("delta_norm", r"$\|\delta(t)\|$ (30)", dict(c="C0", lw=0.6))):
                 tt, yy = decimate(t, np.maximum(tc[key], 1e-12))
                 ax.semilogy(tt, yy, label=lab, **st)
-            ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8, label=f"$T$ = {tc['T']:.2f} s")
+            ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8)
             ax.set_xlabel("$t$ [s]")
             ax.set_title(f"$\\alpha$ = {tc['alpha']:g}")
         axes[0, 0].set_ylabel("norm (transformed state (12), mixed units)")
-        axes[0, -1].legend(loc="lower left", fontsize=7)
-        fig.suptitle("Theorem 1: error norm vs bound, TS-exact noise-free run")
+        axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
+        fig.suptitle("Theorem 1: error norm vs bound, TS-exact noise-free run ($T$: dashed)")
     return fig
 
 
@@ -427,7 +429,15 @@ def fig_hosmd(sc: dict):
     return fig
 
 
-def columns(rows: list[dict], keys=None) -> dict:
-    """Rows -> ``{key: [values]}`` (for metrics.json)."""
+def columns(rows: list[dict], keys=None, digits: int = 4) -> dict:
+    """Rows -> ``{key: [values]}`` (for metrics.json), numbers at ``digits`` significant digits."""
     keys = keys or list(dict.fromkeys(k for r in rows for k in r))
-    return {k: [r.get(k) for r in rows] for k in keys}
+    return {k: [round_sig(_plain(r.get(k)), digits) for r in rows] for k in keys}
+
+
+def _plain(v):
+    if isinstance(v, (np.bool_, bool)):
+        return bool(v)
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    return v
