@@ -32,9 +32,11 @@ states have different units (m/s, rad/s, m/s^2, rad/s^2). The LMIs are solved fo
 state ``x~ = S^-1 x`` with ``S = diag(1, 1, 10, 10)`` (the order of magnitude of each state
 on the emulated lap), which is a congruence of (33) with ``diag(S, I_2)``: feasibility and
 ``c`` are unchanged, ``P = S^-1 P~ S^-1``, ``L_i = S L~_i``. The homogeneity of (33) in
-``(P, M_i, c)`` is removed by ``P~ >= I``; ``P~ <= p_max I`` (1e3) bounds the eigenvalue
-spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``); and, *added to the
-paper's conditions*, a disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
+``(P, M_i, c)`` is removed by ``P~ >= I`` (feasibility unchanged). Two constraints are
+*added to the paper's conditions* by default: ``P~ <= p_max I`` (1e3) bounds the eigenvalue
+spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``; it is what makes the
+design infeasible from alpha = 1 on, while (33) alone stays feasible up to alpha = 10), and a
+disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
 ``P``) on every vertex ``A_i - L_i C`` keeps the observer poles implementable at the paper's
 1 kHz (RK4 needs ``|lambda| dt`` well below 2.8). The objective minimises ``c`` (it scales
 the transient term of (34)). The solution is certified twice: the builders re-evaluated with
