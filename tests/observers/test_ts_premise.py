@@ -6,7 +6,6 @@ import pytest
 from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError
 from vehicle_observers.data import scenarios
 from vehicle_observers.models import lateral
-from vehicle_observers.models.ts import memberships
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.papers import yacine2015 as Y
 
@@ -65,11 +64,17 @@ def test_blended_error_dynamics_decay_faster_than_alpha_over_2(design):
         assert np.abs(lam).max() < design.disk_radius
 
 
-def test_infeasible_design_names_vertex_and_amount():
-    """alpha = 1 asks a decay rate 1/2 1/s that the low-speed vertex (v_x = 0.2 m/s) cannot
-    share with the others under a common P: the error names Xi[8] and the violation."""
+def test_alpha_1_feasible_for_33_alone_infeasible_with_added_conditioning_bound():
+    """alpha = 1: Theorem 1's (33) alone (only the normalisation P~ >= I) is feasible and
+    certified; it is the repository's added bound P~ <= 1e3 I that makes it infeasible, and
+    the error names the low-speed vertex (v_x = 0.2 m/s) and the violation."""
+    ts = Y.ts_model()
+    d = to.design_theorem1(ts, alpha=1.0, p_max=None, disk_radius=None)
+    assert d.certificate_original.ok and d.margins()["xi_original_min_margin"] > 0
+    assert d.added_constraints() == ["P~ >= I (normalisation; feasibility unchanged)"]
+    assert d.alpha2 / d.alpha1 > 1e5          # what the conditioning bound forbids
     with pytest.raises(InfeasibleDesign) as ei:
-        to.design_theorem1(Y.ts_model(), alpha=1.0)
+        to.design_theorem1(ts, alpha=1.0, p_max=1e3, disk_radius=None)
     e = ei.value
     assert e.lmi == "Xi[8]"
     assert e.violation > 0.1
@@ -109,30 +114,39 @@ def test_premise_chain_noise_free(quick_clean):
 
 
 def test_observer_matches_numpy_reference(design, quick_clean):
-    """The numba loop against a plain numpy RK4 of (31) with ts.memberships (first 2 s)."""
+    """The numba loop against the readable numpy step :func:`observer_step` (31), first 2 s."""
     q = quick_clean.segment(10.0, 12.0)
     vyp = q.vy + 0.01
-    run = to.run_observer(q, design, vy_premise=vyp, x0=np.array([0.1, 0, 0.5, -0.5]))
-    ts = design.ts
-    z = to.ts_premises(vyp, q.yaw_rate, q.delta, q.vx)
-    z = np.clip(z, ts.zmin, ts.zmax)
-    h = memberships(z, ts.zmin, ts.zmax)
     x = np.array([0.1, 0, 0.5, -0.5])
-    dt = q.dt
+    run = to.run_observer(q, design, vy_premise=vyp, x0=x)
+    ts = design.ts
+    z = np.clip(to.ts_premises(vyp, q.yaw_rate, q.delta, q.vx), ts.zmin, ts.zmax)
+    np.testing.assert_allclose(run.z, z, rtol=1e-12)
     for k in range(len(q)):
         np.testing.assert_allclose(run.x[k], x, rtol=1e-9, atol=1e-9)
-        A = np.tensordot(h[k], ts.A, axes=1)
-        B = np.tensordot(h[k], ts.B, axes=1)[:, 0]
-        L = np.tensordot(h[k], design.L, axes=1)[:, 0]
-        f = lambda xx: A @ xx + B * q.delta[k] + L * (q.yaw_rate[k] - xx[1])
+        x = to.observer_step(design, x, z[k], q.delta[k], q.yaw_rate[k], q.dt)
+    Ff, Fr = lateral.forces_from_transformed(run.x[:, 2], run.x[:, 3], P)
+    np.testing.assert_allclose(run.Ff, Ff)
+    np.testing.assert_allclose(run.Fr, Fr)
+
+
+def test_observer_step_is_the_convex_blend_of_vertex_observers(design):
+    """At a vertex premise (h = e_i) one step equals RK4 of the vertex observer i alone, and
+    with y = C x on a zero input the step of the exact state x = 0 stays 0."""
+    ts = design.ts
+    dt = 1e-3
+    x = np.array([0.2, 0.05, 1.0, -0.5])
+    for i in (0, 5, 7):
+        Phi = ts.A[i] - design.L[i] @ to.C_OUT
+        f = lambda xx, i=i, Phi=Phi: Phi @ xx + ts.B[i][:, 0] * 0.01 + design.L[i][:, 0] * 0.3
         k1 = f(x)
         k2 = f(x + dt / 2 * k1)
         k3 = f(x + dt / 2 * k2)
         k4 = f(x + dt * k3)
-        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    Ff, Fr = lateral.forces_from_transformed(run.x[:, 2], run.x[:, 3], P)
-    np.testing.assert_allclose(run.Ff, Ff)
-    np.testing.assert_allclose(run.Fr, Fr)
+        want = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        np.testing.assert_allclose(to.observer_step(design, x, ts.z_vertices[i], 0.01, 0.3, dt),
+                                   want, rtol=1e-12)
+    assert np.all(to.observer_step(design, np.zeros(4), ts.z_vertices[3], 0.0, 0.0, dt) == 0)
 
 
 def test_observer_on_emulated_lap_noise_free(design, quick_clean):

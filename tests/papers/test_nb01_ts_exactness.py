@@ -12,4 +12,6 @@ def test_revs_fit_metrics_names_units_and_values():
     assert m["revs_nl_yaw_rmse"] == (0.07, "rad/s")
     assert m["revs_ts_vy_rmse"] == (pytest.approx(1.35), "m/s")
     assert m["revs_lin_yaw_fit"] == (74.0, "")
-    assert exactness.fit_table(fits).count("\n") == 2
+    t = exactness.fit_rows(fits)
+    assert [r["model"] for r in t.rows] == list(exactness.FIT_KEYS)
+    assert t.cells()[2][1] == "2.07"                 # linear bicycle yaw RMSE (0.07 + 2)

@@ -414,7 +414,8 @@ def _make_log(t, truth, rho, vx_true, delta_true, s, p, rng, noise_scale, vision
 
 def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0,
                     vision_rate_hz: float | None = None, params: LateralParams | None = None,
-                    substeps: int = 2, quick_duration: float = 40.0) -> DriveLog:
+                    substeps: int = 2, quick_duration: float = 40.0,
+                    v_max: float = VX_MAX) -> DriveLog:
     """Emulated Satory track run (Yacine 2015 Sec. IV stand-in), 1 kHz, with ground truth.
 
     Parameters
@@ -430,6 +431,8 @@ def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0
     params : vehicle (default: ``papers.yacine2015.params``, the paper's car with the chosen
         Pacejka tyres).
     substeps : RK4 steps per 1 ms sample.
+    v_max : top speed of the speed profile [m/s] (default the paper's ``v_x^max`` = 17; a
+        lower value keeps the *measured* ``v_x`` (true + noise) inside the TS sector).
 
     Returns
     -------
@@ -439,7 +442,7 @@ def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0
     p = params or _default_params()
     rng = np.random.default_rng(seed)
     track = satory_track()
-    sg, vg = speed_profile(track)
+    sg, vg = speed_profile(track, v_max=v_max)
     t, s, vx = time_grid(sg, vg, t_end=quick_duration if quick else None)
     dist = _filtered_noise(rng, len(t), 1.0 / FS_HZ, STEER_DIST_STD, STEER_DIST_TC)
     drv = np.array([PREVIEW_TIME, PREVIEW_MIN, understeer_gradient(p), STEER_TAU,
@@ -450,7 +453,8 @@ def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0
     rho = track.rho(s)
     log = _make_log(t, out[:, :6], rho, vx, out[:, 6], s, p, rng, noise_scale, vision_rate_hz,
                     source=f"emulated_satory(seed={seed}, quick={quick}, "
-                           f"noise_scale={noise_scale:g}, vision_rate_hz={vision_rate_hz})",
+                           f"noise_scale={noise_scale:g}, vision_rate_hz={vision_rate_hz}"
+                           + (f", v_max={v_max:g})" if v_max != VX_MAX else ")"),
                     extra={"delta_cmd_rad": out[:, 7]})
     return log
 

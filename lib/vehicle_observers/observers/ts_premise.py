@@ -32,9 +32,11 @@ states have different units (m/s, rad/s, m/s^2, rad/s^2). The LMIs are solved fo
 state ``x~ = S^-1 x`` with ``S = diag(1, 1, 10, 10)`` (the order of magnitude of each state
 on the emulated lap), which is a congruence of (33) with ``diag(S, I_2)``: feasibility and
 ``c`` are unchanged, ``P = S^-1 P~ S^-1``, ``L_i = S L~_i``. The homogeneity of (33) in
-``(P, M_i, c)`` is removed by ``P~ >= I``; ``P~ <= p_max I`` (1e3) bounds the eigenvalue
-spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``); and, *added to the
-paper's conditions*, a disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
+``(P, M_i, c)`` is removed by ``P~ >= I`` (feasibility unchanged). Two constraints are
+*added to the paper's conditions* by default: ``P~ <= p_max I`` (1e3) bounds the eigenvalue
+spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``; it is what makes the
+design infeasible from alpha = 1 on, while (33) alone stays feasible up to alpha = 10), and a
+disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
 ``P``) on every vertex ``A_i - L_i C`` keeps the observer poles implementable at the paper's
 1 kHz (RK4 needs ``|lambda| dt`` well below 2.8). The objective minimises ``c`` (it scales
 the transient term of (34)). The solution is certified twice: the builders re-evaluated with
@@ -172,6 +174,19 @@ class ObserverDesign:
     certificate_original: Certificate
     disk_radius: float | None
     solve_time: float
+    p_max: float | None = 1e3
+
+    def added_constraints(self) -> list[str]:
+        """The constraints solved *in addition to* (33) and ``P > 0`` (scaled coordinates
+        ``P~ = S P S``): the normalisation ``P~ >= I`` (removes the homogeneity of (33), does
+        not change feasibility), the conditioning bound ``P~ <= p_max I`` and the disk region
+        ``|lambda(A_i - L_i C)| < R`` when they were used."""
+        out = ["P~ >= I (normalisation; feasibility unchanged)"]
+        if self.p_max is not None:
+            out.append(f"P~ <= {self.p_max:g} I (conditioning bound)")
+        if self.disk_radius is not None:
+            out.append(f"|lambda(A_i - L_i C)| < {self.disk_radius:g} 1/s (disk region)")
+        return out
 
     @property
     def alpha1(self) -> float:
@@ -218,7 +233,13 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
     """Solve Theorem 1 (33) for the 8-rule TS model (24) ``ts`` (the paper's bounds:
     ``papers.yacine2015.ts_model()``).
 
-    See the module docstring for the scaling, normalisation and the added disk region.
+    Constraints solved, in scaled coordinates (module docstring): (33) for the 8 vertices,
+    ``P~ >= I`` (normalisation of the homogeneous (33); feasibility unchanged) and, **added
+    to the paper** unless set to ``None``: ``P~ <= p_max I`` (conditioning bound) and the
+    disk region ``|lambda(A_i - L_i C)| < disk_radius`` [1/s]. Both added constraints
+    restrict (33): an infeasibility with them is not an infeasibility of Theorem 1 (for the
+    paper's bounds (33) alone is feasible up to alpha = 10 at least; ``p_max`` is what fails
+    first as alpha grows). Objective ``min c``.
     Raises :class:`InfeasibleDesign` naming the worst vertex and the best achievable largest
     eigenvalue of (33) (found by :func:`diagnose_infeasible`) when there is no solution, and
     :class:`CertificationError` if a returned solution fails either certificate.
@@ -268,7 +289,7 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
         raise CertificationError(f"Theorem 1: {w.name} fails in original coordinates "
                                  f"(margin {w.margin:.3e})", lmi=w.name, violation=-w.margin)
     return ObserverDesign(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
-                          solve_time)
+                          solve_time, p_max)
 
 
 def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
@@ -393,6 +414,30 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
             for i in range(n):
                 x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return X, Z, clipped
+
+
+def observer_step(design: ObserverDesign, x, z, u: float, y: float, dt: float):
+    """One sample of the TS observer (31), readable numpy version of the compiled loop.
+
+    ``x`` (4,) estimate; ``z`` (3,) premises ``(f_r, f_f, v_x)`` already clipped to the sector;
+    ``u`` steering [rad], ``y`` measured yaw rate [rad/s], both held over ``dt`` [s].
+    Returns the estimate after one RK4 step of
+    ``xhat' = sum_i h_i (A_i xhat + B_i u + L_i (y - C xhat))`` (Yacine 2015, eq. (31)).
+    """
+    ts = design.ts
+    h = memberships(np.atleast_2d(z), ts.zmin, ts.zmax)[0]     # h_i(s_e), sum = 1
+    A = np.tensordot(h, ts.A, axes=1)                           # sum_i h_i A_i
+    B = np.tensordot(h, ts.B, axes=1)[:, 0]
+    L = np.tensordot(h, design.L, axes=1)[:, 0]
+
+    def f(xx):
+        return A @ xx + B * u + L * (y - xx[1])                 # C xhat = xhat_2
+
+    k1 = f(x)
+    k2 = f(x + dt / 2 * k1)
+    k3 = f(x + dt / 2 * k2)
+    k4 = f(x + dt * k3)
+    return x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
 @dataclass

@@ -21,6 +21,7 @@ from vehicle_observers.data.logs import DriveLog, despike
 from vehicle_observers.models import bicycle, lateral
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.ts import SectorTS
+from vehicle_observers.results.tables import show_table
 
 
 @dataclass
@@ -149,11 +150,11 @@ def revs_fit_metrics(fits: dict) -> dict:
             for name, key in FIT_KEYS.items() for k, v in fits[name].items()}
 
 
-def fit_table(fits: dict) -> str:
-    """One text line per model of :func:`revs_fig1`: yaw-rate and v_y fit."""
-    return "\n".join(f"{name:<26} yaw rate: RMSE {f['yaw_rmse']:.4f} rad/s, corr {f['yaw_corr']:.3f}, "
-                     f"fit {f['yaw_fit']:.1f} % | v_y: RMSE {f['vy_rmse']:.3f} m/s, corr {f['vy_corr']:.3f}"
-                     for name, f in fits.items())
+def fit_rows(fits: dict):
+    """One row per model of :func:`revs_fig1` (yaw-rate RMSE [rad/s], correlation and fit [%],
+    v_y RMSE [m/s] and correlation), as a rounded table for the notebook."""
+    return show_table([{"model": name, **f} for name, f in fits.items()],
+                      ["model", "yaw_rmse", "yaw_corr", "yaw_fit", "vy_rmse", "vy_corr"])
 
 
 def bicycle_exactness(bp: bicycle.BicycleParams, duration: float = 10.0, dt: float = 1e-3,

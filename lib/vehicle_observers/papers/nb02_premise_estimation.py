@@ -7,6 +7,9 @@ see :mod:`vehicle_observers.observers.ts_premise`.
 
 from __future__ import annotations
 
+from dataclasses import replace
+from itertools import product
+
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -19,11 +22,17 @@ from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.observers.differentiators import levant_differentiator
 from vehicle_observers.papers import yacine2015
+from vehicle_observers.results.rules import round_sig
 
 #: samples before this time [s] are excluded from "after convergence" metrics
 T_SETTLE = 5.0
 #: speeds below this [m/s] are excluded from the curvature metrics ((11) divides by v_x)
 VX_RHO_MIN = 2.0
+#: top speed of the emulated lap [m/s]: below the sector's v_x^max = 17 m/s by 25 noise
+#: standard deviations of the measured v_x, so the measured speed stays inside the sector
+V_MAX = 16.5
+#: deliberately wrong initial estimate of the theory check (transformed state (12))
+X0_WRONG = (0.5, 0.1, 2.0, -2.0)
 
 
 def estimation_metrics(log: DriveLog, run: to.ObserverRun, t_settle: float = T_SETTLE,
@@ -112,7 +121,7 @@ def hosmd_scaling(order: int = 3, L: float = 1.0, seed: int = 0, duration: float
 
 
 def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1: float = 40.0,
-                 x0=(0.5, 0.1, 2.0, -2.0), band_vy: float = 1e-3, params=None) -> dict:
+                 x0=X0_WRONG, band_vy: float = 1e-3, params=None) -> dict:
     """Bound (34) against the error norm on a noise-free TS-exact run (Theorem 1 check).
 
     ``base`` (noise-free emulated log) gives steering, speed and curvature on ``[t0, t1]``;
@@ -120,6 +129,11 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     which the TS form (24) represents exactly inside the sector. The observer starts at
     ``x0`` (a deliberately wrong estimate, to exercise the decay term). ``T`` = last exit of
     the premise error from ``band_vy`` (the differentiators' convergence time in (34)).
+
+    ``t_informative`` [s]: the time after which the bound (45) falls below ``||e(0)||``
+    (before it, (34) says less than "the error does not grow"): ``(2/alpha) ln(B0/||e0||)``
+    with ``B0 = sqrt(a2/a1 ||e0||^2 + c/(alpha a1) max_[0,T] ||delta||^2 e^(alpha T))``, the
+    factor of ``e^(-alpha t/2)`` in (45); it may lie beyond the simulated horizon.
     """
     p = params or to._params(None)
     log = scenarios.replay(base.segment(t0, t1), exact_slip=False)
@@ -135,107 +149,215 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     dn = np.linalg.norm(dl, axis=1)
     T = to.convergence_time(log.t, pe.vy - log.vy, band=band_vy)
     b = to.bound_34(log.t, en[0], dn, T, design)
-    return {"t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
+    a, a1, a2 = design.alpha, design.alpha1, design.alpha2
+    B0 = np.sqrt(a2 / a1 * en[0] ** 2 + design.c / (a * a1) * b["delta_max_T"] ** 2 * np.exp(a * T))
+    return {"alpha": a, "t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
             "bound_paper": b["paper"], "T": T, "truth_inside_sector": inside,
             "max_ratio": float(np.max(en / b["paper"])),
+            "max_ratio_iss": float(np.max(en / b["iss"])),
             "min_margin": float(np.min(b["paper"] - en)),
             "min_margin_iss": float(np.min(b["iss"] - en)),
             "delta_max_T": b["delta_max_T"], "e0": float(en[0]),
-            "err_after_5s": float(en[log.t > 5].max())}
+            "err_after_5s": float(en[log.t > 5].max()),
+            "bound_end": float(b["paper"][-1]), "horizon": float(log.t[-1]),
+            "t_informative": float(max(T, 2.0 / a * np.log(B0 / en[0])))}
 
 
 def noise_study(levels=(0.0, 1.0, 3.0), seed: int = 0, quick: bool = False,
-                design: to.ObserverDesign | None = None, vision_rate_hz=None) -> list[dict]:
+                design: to.ObserverDesign | None = None, vision_rate_hz=None,
+                v_max: float = V_MAX, L_y: float = to.L_YL, L_psi: float = to.L_PSIL) -> list[dict]:
     """Estimation metrics for several ``noise_scale`` values (same seed, same truth)."""
     design = design or to.design_theorem1(yacine2015.ts_model())
     rows = []
     for lv in levels:
         log = scenarios.emulated_satory(seed=seed, quick=quick, noise_scale=lv,
-                                        vision_rate_hz=vision_rate_hz)
-        run = to.run_observer(log, design)
+                                        vision_rate_hz=vision_rate_hz, v_max=v_max)
+        pe = to.estimate_premises(log, L_y=L_y, L_psi=L_psi)
+        run = to.run_observer(log, design, pe)
         rows.append({"noise_scale": lv, "vision_rate_hz": vision_rate_hz,
                      **estimation_metrics(log, run)})
     return rows
 
 
-def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=(0.5, 0.1, 2.0, -2.0),
-                band: float = 1e-3) -> list[dict]:
-    """Theorem 1 for several decay parameters ``alpha``: feasibility, ``c``, P conditioning,
-    and the observer on ``log`` started at ``x0``: time for ``|vy error|`` to enter ``band``
+#: configurations of the LMI problem: Theorem 1 (33) alone, then each constraint the
+#: repository adds (``design_theorem1`` keywords). ``P~ >= I`` is always there (normalisation
+#: of the homogeneous (33), feasibility unchanged).
+LMI_CONFIGS = {"(33) alone": {"p_max": None, "disk_radius": None},
+               "(33) + P~ <= 1e3 I": {"p_max": 1e3, "disk_radius": None},
+               "(33) + disk |lambda| < 600": {"p_max": None, "disk_radius": 600.0},
+               "(33) + both (default)": {"p_max": 1e3, "disk_radius": 600.0}}
+#: the configuration used when alpha is larger than the default design allows: (33) with the
+#: disk region only (poles implementable at 1 kHz), no conditioning bound
+DISK_ONLY = LMI_CONFIGS["(33) + disk |lambda| < 600"]
+
+
+def lmi_study(alphas=(1e-3, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0), configs=None, ts=None) -> list[dict]:
+    """Feasibility of Theorem 1 against alpha, for (33) alone and with each added constraint.
+
+    One row per (alpha, configuration): ``feasible``; if feasible ``c``, ``P_condition``
+    (of P in original coordinates), ``xi_min_relative`` (worst relative eigenvalue margin of
+    (33) rebuilt in original coordinates: below ~1e-10 the certificate is at round-off
+    level), ``max_pole_modulus`` of the vertex observers and ``pole_dt`` = that times
+    ``Ts`` (RK4 at ``Ts`` is stable on the real axis for ``|lambda| Ts < 2.78``); if
+    infeasible the LMI named by the diagnosis and its violation.
+    """
+    configs = LMI_CONFIGS if configs is None else configs
+    ts = ts or yacine2015.ts_model()
+    rows = []
+    for a, (name, kw) in product(alphas, configs.items()):
+        row = {"alpha": a, "config": name}
+        try:
+            d = to.design_theorem1(ts, alpha=a, **kw)
+        except InfeasibleDesign as exc:
+            rows.append({**row, "feasible": False, "lmi": exc.lmi, "violation": exc.violation})
+            continue
+        mg = d.margins()
+        rows.append({**row, "feasible": True, "c": d.c, "P_condition": mg["P_condition"],
+                     "xi_min_relative": mg["xi_original_min_relative"],
+                     "max_pole_modulus": mg["max_pole_modulus"],
+                     "pole_dt": mg["max_pole_modulus"] * yacine2015.Ts})
+    return rows
+
+
+def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
+                band: float = 1e-3, config=None) -> list[dict]:
+    """The observer for several decay parameters ``alpha`` (design ``config``, default
+    :data:`DISK_ONLY`) on ``log`` started at ``x0``: time for ``|vy error|`` to enter ``band``
     [m/s] and stay there >= 1 s, and the metrics. Infeasible alphas give a row with the
-    error message."""
+    error's LMI and violation."""
+    config = DISK_ONLY if config is None else config
     rows = []
     for a in alphas:
         try:
-            d = to.design_theorem1(yacine2015.ts_model(), alpha=a)
+            d = to.design_theorem1(yacine2015.ts_model(), alpha=a, **config)
         except InfeasibleDesign as exc:
-            rows.append({"alpha": a, "feasible": False, "error": str(exc).split("Diagnosis: ")[-1],
-                         "lmi": exc.lmi, "violation": exc.violation})
+            rows.append({"alpha": a, "feasible": False, "lmi": exc.lmi,
+                         "violation": exc.violation})
             continue
         run = to.run_observer(log, d, x0=np.asarray(x0, dtype=float))
-        mg = d.margins()
-        rows.append({"alpha": a, "feasible": True, "c": d.c, "P_condition": mg["P_condition"],
-                     "min_margin": mg["xi_original_min_margin"],
-                     "max_pole_real": mg["max_pole_real"],
+        rows.append({"alpha": a, "feasible": True, "c": d.c,
                      "T_settle_vy": to.convergence_time(log.t, run.vy - log.vy, band,
                                                         mode="first"),
                      **estimation_metrics(log, run)})
     return rows
 
 
+def bound_study(base: DriveLog, alphas=(1e-3, 1.0, 2.0), t1: float = 40.0,
+                config=None) -> list[dict]:
+    """Bound (34) for several ``alpha`` (design ``config``, default :data:`DISK_ONLY`) on the
+    TS-exact noise-free replay ``[12 s, t1]`` of ``base`` (:func:`theory_check`): the largest
+    ratio ``||e|| / bound``, the bound at the end of the horizon and ``t_informative``; the
+    full :func:`theory_check` result under ``"check"`` (for :func:`fig_bound`)."""
+    config = DISK_ONLY if config is None else config
+    rows = []
+    for a in alphas:
+        d = to.design_theorem1(yacine2015.ts_model(), alpha=a, **config)
+        tc = theory_check(base, d, t1=t1)
+        rows.append({"alpha": a, "c": d.c, "P_condition": d.alpha2 / d.alpha1,
+                     **{k: tc[k] for k in ("T", "horizon", "max_ratio", "max_ratio_iss", "e0",
+                                           "bound_end", "err_after_5s", "t_informative",
+                                           "truth_inside_sector")}, "check": tc})
+    return rows
+
+
+#: model mismatch of the truth against the observer's model (relative changes of the
+#: Pacejka B, C, D of both tyres, of m and I_z; absolute relaxation length r [m])
+MISMATCH = {"B": -0.05, "C": 0.03, "D": -0.10, "m": 0.10, "I_z": -0.10, "r": 0.15}
+
+
+def mismatched_params(p=None, mismatch=None):
+    """The paper's car with the tyre and inertia errors of ``mismatch`` (default
+    :data:`MISMATCH`): ``B, C, D`` multiplied by ``1 + change`` on both axles, ``m, I_z``
+    likewise, relaxation lengths ``r_f = r_r = mismatch["r"]`` [m]."""
+    p = p or to._params(None)
+    mm = MISMATCH if mismatch is None else mismatch
+    tyre = lambda t: replace(t, B=t.B * (1 + mm["B"]), C=t.C * (1 + mm["C"]), D=t.D * (1 + mm["D"]))
+    return replace(p, tire_f=tyre(p.tire_f), tire_r=tyre(p.tire_r), m=p.m * (1 + mm["m"]),
+                   I_z=p.I_z * (1 + mm["I_z"]), r_f=mm["r"], r_r=mm["r"],
+                   name=f"{p.name}, mismatched")
+
+
+def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False,
+                   noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None) -> list[dict]:
+    """Matched model (truth = the observer's car) and mismatched truth
+    (:func:`mismatched_params`) on the same emulated lap, same seed: estimation metrics
+    side by side (the observer and the premise chain keep the paper's car)."""
+    rows = []
+    for name, truth in (("matched", None), ("mismatched", mismatched_params(None, mismatch))):
+        log = scenarios.emulated_satory(seed=seed, quick=quick, noise_scale=noise_scale,
+                                        params=truth, v_max=v_max)
+        run = to.run_observer(log, design)
+        rows.append({"truth": name, **estimation_metrics(log, run)})
+    return rows
+
+
 # ------------------------------------------------------------------ figures ----------------
-def fig_scenario(track, log: DriveLog):
-    """Track map, curvature and speed along the run, slip angles."""
+#: colour-blind-safe style of every figure of this notebook
+STYLE = "tableau-colorblind10"
+
+
+def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.vx_max)):
+    """Track map, curvature and speed along the run (with the TS sector's v_x bound), slips."""
     s, x, y, _ = scenarios.track_xy(track, ds=1.0)
     sl = log.extra["s_m"]
-    xs, ys = np.interp(sl % track.length, s, x), np.interp(sl % track.length, s, y)
+    xs, ys_ = np.interp(sl % track.length, s, x), np.interp(sl % track.length, s, y)
     t = log.t
-    panels = [("rho [1/m]", log.rho), ("v_x [m/s]", log.vx),
-              ("slip [deg]", np.degrees(np.column_stack([log.extra["alpha_f_true_rad"],
-                                                         log.extra["alpha_r_true_rad"]])))]
-    fig, axes = plt.subplots(3, 2, figsize=(10, 6.5), gridspec_kw={"width_ratios": [1, 1.6]})
-    gs = axes[0, 0].get_gridspec()
-    for a in axes[:, 0]:
-        a.remove()
-    axm = fig.add_subplot(gs[:, 0])
-    axm.plot(x, y, "k-", lw=1)
-    axm.plot(xs[::50], ys[::50], "C1", lw=2.5, label="driven in this run")
-    axm.plot(x[0], y[0], "go", label="start / finish")
-    axm.set_aspect("equal")
-    axm.set_title(track.name)
-    axm.set_xlabel("x [m]")
-    axm.set_ylabel("y [m]")
-    axm.legend(loc="best")
-    for ax, (lab, yv) in zip(axes[:, 1], panels, strict=True):
-        tt, yy = decimate(t, yv)
-        ax.plot(tt, yy)
-        ax.set_ylabel(lab)
-    axes[2, 1].axhline(8, ls=":", c="k", lw=0.8)
-    axes[2, 1].axhline(-8, ls=":", c="k", lw=0.8)
-    axes[2, 1].legend(["front", "rear", "sector +-8 deg"], loc="best")
-    axes[2, 1].set_xlabel("t [s]")
+    panels = [(r"$\rho$ [1/m]", log.rho), (r"$v_x$ [m/s]", log.vx),
+              (r"slip $\alpha$ [deg]",
+               np.degrees(np.column_stack([log.extra["alpha_f_true_rad"],
+                                           log.extra["alpha_r_true_rad"]])))]
+    with plt.style.context(STYLE):
+        fig, axes = plt.subplots(3, 2, figsize=(10, 6.5), gridspec_kw={"width_ratios": [1, 1.6]})
+        gs = axes[0, 0].get_gridspec()
+        for a in axes[:, 0]:
+            a.remove()
+        axm = fig.add_subplot(gs[:, 0])
+        axm.plot(x, y, "k-", lw=1)
+        axm.plot(xs[::50], ys_[::50], "C1", lw=2.5, label="driven in this run")
+        axm.plot(x[0], y[0], "o", c="C2", label="start / finish")
+        axm.set_aspect("equal")
+        axm.set_title(track.name)
+        axm.set_xlabel("$x$ [m]")
+        axm.set_ylabel("$y$ [m]")
+        axm.legend(loc="upper left", bbox_to_anchor=(0, -0.2))
+        for ax, (lab, yv) in zip(axes[:, 1], panels, strict=True):
+            tt, yy = decimate(t, yv)
+            ax.plot(tt, yy)
+            ax.set_ylabel(lab)
+        axes[1, 1].axhline(vx_sector[1], ls=":", c="k", lw=0.8)
+        axes[1, 1].legend(["measured $v_x$", r"sector $v_x^{max}$"], loc="lower center")
+        axes[2, 1].axhline(8, ls=":", c="k", lw=0.8)
+        axes[2, 1].axhline(-8, ls=":", c="k", lw=0.8)
+        axes[2, 1].legend(["front", "rear", r"sector $\pm 8°$"], loc="lower left", ncol=3)
+        axes[2, 1].set_xlabel("$t$ [s]")
     return fig
 
 
 def fig_estimates(log: DriveLog, run: to.ObserverRun):
-    """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer)."""
+    """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
+    with an error panel (truth and estimate overlap at this scale)."""
     t = log.t
-    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 7))
-    series = [("v_y [m/s]", [("truth", log.vy, dict(c="0.6", lw=2.2)),
-                             ("premise (26), HOSMD", run.premises.vy, dict(c="C1", lw=0.6)),
-                             ("TS observer (31)", run.vy, dict(c="k", ls="--"))]),
-              ("F_f [N]", [("truth", log.Ff, dict(c="0.6", lw=2.2)),
-                           ("TS observer (31)+(46)", run.Ff, dict(c="k", ls="--"))]),
-              ("F_r [N]", [("truth", log.Fr, dict(c="0.6", lw=2.2)),
-                           ("TS observer (31)+(46)", run.Fr, dict(c="k", ls="--"))])]
-    for ax, (lab, ss) in zip(axes, series, strict=True):
-        for name, y, st in ss:
-            tt, yy = decimate(t, y)
-            ax.plot(tt, yy, label=name, **st)
-        ax.set_ylabel(lab)
-        ax.legend(loc="best")
-    axes[-1].set_xlabel("t [s]")
-    fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run)")
+    rows = [(r"$v_y$ [m/s]", log.vy, run.vy, run.premises.vy),
+            (r"$F_f$ [N]", log.Ff, run.Ff, None), (r"$F_r$ [N]", log.Fr, run.Fr, None)]
+    with plt.style.context(STYLE):
+        fig, axes = plt.subplots(6, 1, sharex=True, figsize=(10, 9.5),
+                                 gridspec_kw={"height_ratios": [2, 1] * 3})
+        for k, (lab, truth, est, prem) in enumerate(rows):
+            ax, ae = axes[2 * k], axes[2 * k + 1]
+            tt, yt, ye = decimate(t, truth, est)
+            ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
+            if prem is not None:
+                tp, yp, ep = decimate(t, prem, prem - truth)
+                ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
+                ae.plot(tp, ep, c="C1", lw=0.6, label="premise (26)")
+            ax.plot(tt, ye, c="k", ls="--", label="TS observer (31)" + ("+(46)" if k else ""))
+            ae.plot(tt, ye - yt, c="k", lw=0.7, label="observer")
+            ax.set_ylabel(lab)
+            ae.set_ylabel("error " + lab.split(" ")[1])
+            ax.legend(loc="upper right", fontsize=7)
+            ae.legend(loc="upper right", fontsize=7)
+        axes[-1].set_xlabel("$t$ [s]")
+        fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run)")
     return fig
 
 
@@ -243,73 +365,79 @@ def fig_curvature(log: DriveLog, pe: to.PremiseEstimate, vx_min: float = VX_RHO_
     """Fig. 3 analogue: road curvature estimated by (11) vs truth (masked below vx_min)."""
     t = log.t
     est = np.where(log.vx > vx_min, pe.rho, np.nan)
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 5.5),
-                             gridspec_kw={"height_ratios": [2, 1]})
-    tt, r, e = decimate(t, log.rho, est)
-    axes[0].plot(tt, r, c="0.6", lw=2.2, label="truth")
-    axes[0].plot(tt, e, "k--", lw=0.8, label="estimate (11), HOSMD n = 3")
-    axes[0].set_ylabel("rho [1/m]")
-    axes[0].legend(loc="best")
-    tt, ee = decimate(t, est - log.rho)
-    axes[1].plot(tt, ee, "k", lw=0.6)
-    axes[1].set_ylabel("error [1/m]")
-    axes[1].set_xlabel("t [s]")
-    fig.suptitle(f"Road curvature (Yacine 2015 Fig. 3 analogue); v_x <= {vx_min} m/s masked")
+    with plt.style.context(STYLE):
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 5.5),
+                                 gridspec_kw={"height_ratios": [2, 1]})
+        tt, r, e = decimate(t, log.rho, est)
+        axes[0].plot(tt, r, c="0.6", lw=2.2, label="truth")
+        axes[0].plot(tt, e, "k--", lw=0.8, label="estimate (11), HOSMD $n = 3$")
+        axes[0].set_ylabel(r"$\rho$ [1/m]")
+        axes[0].legend(loc="upper right")
+        tt, ee = decimate(t, est - log.rho)
+        axes[1].plot(tt, ee, "k", lw=0.6)
+        axes[1].set_ylabel(r"$\hat\rho - \rho$ [1/m]")
+        axes[1].set_xlabel("$t$ [s]")
+        fig.suptitle("Road curvature (Yacine 2015 Fig. 3 analogue); "
+                     rf"$v_x \leq {vx_min:g}$ m/s masked")
     return fig
 
 
-def fig_bound(tc: dict):
-    """Bound (34) and the ISS form (40) vs the error norm, log scale."""
-    fig, ax = plt.subplots(figsize=(9, 4))
-    t = tc["t"]
-    for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C3")),
-                         ("bound_iss", "ISS bound (40)", dict(c="C1", ls=":")),
-                         ("err_norm", "||e(t)|| simulated", dict(c="k")),
-                         ("delta_norm", "||delta(t)|| (30)", dict(c="C0", lw=0.6))):
-        tt, yy = decimate(t, np.maximum(tc[key], 1e-12))
-        ax.semilogy(tt, yy, label=lab, **st)
-    ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8, label=f"T = {tc['T']:.2f} s")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("norm (transformed units)")
-    ax.legend(loc="best")
-    ax.set_title("Theorem 1: error norm vs bound, TS-exact noise-free run")
+def fig_bound(checks: list[dict]):
+    """Bound (34)/(45) and the ISS form (40) vs the error norm, log scale; one panel per
+    :func:`theory_check` result (``checks`` items carry the design's ``alpha``)."""
+    with plt.style.context(STYLE):
+        fig, axes = plt.subplots(1, len(checks), figsize=(5.2 * len(checks), 4), sharey=True,
+                                 squeeze=False)
+        for ax, tc in zip(axes[0], checks, strict=True):
+            t = tc["t"]
+            for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C1", lw=1.6)),
+                                 ("bound_iss", "ISS bound (40)", dict(c="C4", ls=":", lw=1.6)),
+                                 ("err_norm", r"$\|e(t)\|$ simulated", dict(c="k")),
+                                 ("delta_norm", r"$\|\delta(t)\|$ (30)", dict(c="C0", lw=0.6))):
+                tt, yy = decimate(t, np.maximum(tc[key], 1e-12))
+                ax.semilogy(tt, yy, label=lab, **st)
+            ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8)
+            ax.set_xlabel("$t$ [s]")
+            ax.set_title(f"$\\alpha$ = {tc['alpha']:g}")
+        axes[0, 0].set_ylabel("norm (transformed state (12), mixed units)")
+        axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
+        fig.suptitle("Theorem 1: error norm vs bound, TS-exact noise-free run ($T$: dashed)")
     return fig
 
 
 def fig_hosmd(sc: dict):
     """Log-log accuracy of the HOSMD vs sampling step and noise amplitude."""
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8))
-    for i in range(sc["err_tau"].shape[1]):
-        a1.loglog(sc["taus"], sc["err_tau"][:, i], "o-",
-                  label=f"i={i}: slope {sc['slope_tau'][i]:.2f} (theory {sc['theory_tau'][i]})")
-        a2.loglog(sc["eps"], sc["err_eps"][:, i], "o-",
-                  label=f"i={i}: slope {sc['slope_eps'][i]:.2f} (theory {sc['theory_eps'][i]:.2f})")
-    a1.set_xlabel("sampling step tau [s]")
-    a2.set_xlabel("noise amplitude eps")
-    for a in (a1, a2):
-        a.set_ylabel("max |z_i - f^(i)|")
-        a.legend(loc="best", fontsize=7)
-    fig.suptitle("Levant differentiator n = 3 on sin t: accuracy exponents")
+    from matplotlib.ticker import FixedLocator, NullLocator
+
+    with plt.style.context(STYLE):
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8))
+        for i in range(sc["err_tau"].shape[1]):
+            a1.loglog(sc["taus"], sc["err_tau"][:, i], "o-",
+                      label=f"$i$={i}: slope {sc['slope_tau'][i]:.2f} (theory {sc['theory_tau'][i]})")
+            a2.loglog(sc["eps"], sc["err_eps"][:, i], "o-",
+                      label=f"$i$={i}: slope {sc['slope_eps'][i]:.2f} "
+                            f"(theory {sc['theory_eps'][i]:.2f})")
+        a1.xaxis.set_major_locator(FixedLocator(sc["taus"]))
+        a1.xaxis.set_minor_locator(NullLocator())
+        a1.set_xticklabels([f"{v:g}" for v in sc["taus"]])
+        a1.set_xlabel(r"sampling step $\tau$ [s]")
+        a2.set_xlabel(r"noise amplitude $\varepsilon$ [same unit as $f$]")
+        for a in (a1, a2):
+            a.set_ylabel(r"$\max_t |z_i - f^{(i)}|$")
+            a.legend(loc="lower right", fontsize=7)
+        fig.suptitle("Levant differentiator $n = 3$ on $f = \\sin t$: accuracy exponents")
     return fig
 
 
-def table(rows: list[dict], columns=None) -> str:
-    """Plain-text table of dict rows (4 significant digits), for notebook printing."""
-    columns = columns or list(dict.fromkeys(k for r in rows for k in r))
-
-    def fmt(v):
-        if isinstance(v, (float, np.floating)):
-            return f"{v:.4g}"
-        return str(v)
-
-    cells = [[fmt(r.get(c, "")) for c in columns] for r in rows]
-    w = [max(len(c), *(len(row[j]) for row in cells)) for j, c in enumerate(columns)]
-    lines = ["  ".join(c.rjust(w[j]) for j, c in enumerate(columns))]
-    lines += ["  ".join(v.rjust(w[j]) for j, v in enumerate(row)) for row in cells]
-    return "\n".join(lines)
-
-
-def columns(rows: list[dict], keys=None) -> dict:
-    """Rows -> ``{key: [values]}`` (for metrics.json)."""
+def columns(rows: list[dict], keys=None, digits: int = 4) -> dict:
+    """Rows -> ``{key: [values]}`` (for metrics.json), numbers at ``digits`` significant digits."""
     keys = keys or list(dict.fromkeys(k for r in rows for k in r))
-    return {k: [r.get(k) for r in rows] for k in keys}
+    return {k: [round_sig(_plain(r.get(k)), digits) for r in rows] for k in keys}
+
+
+def _plain(v):
+    if isinstance(v, (np.bool_, bool)):
+        return bool(v)
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    return v
