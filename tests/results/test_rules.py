@@ -78,6 +78,7 @@ def test_rule_text_shows_every_condition():
 def test_rounding_and_formatting():
     assert round_sig(83.71880457924199, 4) == 83.72
     assert round_sig([0.0026712486041248003, 18.88387764745261], 3) == [0.00267, 18.9]
+    assert round_sig({"a": 1.23456, "b": [2.34567]}, 3) == {"a": 1.23, "b": [2.35]}
     assert round_sig(True, 3) is True and round_sig(55001, 3) == 55001
     assert fmt(0.007076869442409314) == "0.00708"
     assert fmt(list(range(20))) == "20 values in [0, 19]"

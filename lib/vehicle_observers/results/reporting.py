@@ -183,7 +183,8 @@ class Report:
             if target is not None or verdict is not None:
                 raise TypeError(f"claim {paper} {item}: with a Rule, give neither target nor verdict")
             j = rule.judge(self.values())
-            c = Claim(paper, item, figure, metric, _jsonable(j.value), rule.paper, j.verdict, note,
+            c = Claim(paper, item, figure, metric, round_sig(_jsonable(j.value), 4), rule.paper,
+                      j.verdict, note,
                       rule.text(), j.proves_little,
                       {k: v for k, v in asdict(rule).items() if v is not None})
             self.claims.append(c)

@@ -154,10 +154,12 @@ def _true(x, expr) -> bool:
 
 
 def round_sig(x, digits: int):
-    """``x`` (float or nested list) rounded to ``digits`` significant digits; integers and
+    """``x`` (float, or nested list / dict of them) rounded to ``digits`` significant digits; integers and
     booleans are kept exact."""
     if isinstance(x, (list, tuple)):
         return [round_sig(v, digits) for v in x]
+    if isinstance(x, dict):
+        return {k: round_sig(v, digits) for k, v in x.items()}
     if isinstance(x, (bool, int)) or not isinstance(x, float):
         return x  # counts and flags are exact
     x = float(x)
