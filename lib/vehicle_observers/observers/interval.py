@@ -23,7 +23,11 @@ sector-nonlinearity TS form with 4 vertices ``A_i^j(xi) = A(rho_i^j, xi)`` is ex
 (:mod:`vehicle_observers.models.ts` convention: premise order ``(1/v_x, v_x)``, bit 0 = upper
 bound, so vertex ``j = 0..3`` is ``(1/v_min, v_max), (1/v_min, v_min), (1/v_max, v_max),
 (1/v_max, v_min)``; the printed gains' pattern (``L^1, L^3`` more negative than ``L^2,
-L^4`` in every mode) is consistent with ``v_x`` being the fast index).
+L^4`` in every mode) is consistent with ``v_x`` being the fast index). The polarity of
+``1/v_x`` is not printed: ``SwitchedIntervalModel(..., inv_vx_upper_first=False)`` swaps it
+(vertices 1-2 at ``1/v_max``); :mod:`vehicle_observers.papers.ifqir2017` uses that one (closer
+to the printed gains). Vertex order only relabels the LMI unknowns; the observer kernel
+always receives its arrays in the standard order (``vertex_perm``).
 
 Element-wise bounds (Assumption 3): every entry of ``A(rho, xi)`` and ``B(xi)`` is affine
 in ``xi`` for fixed ``rho``, so its exact range over the box is reached at a corner and is
@@ -488,13 +492,14 @@ class PrintedCertificate:
 
 
 def certify_solution(model: SwitchedIntervalModel, P_diag, L, eps_decay: float = 1.0,
-                     accel_max: float = 3.0, p_min: float = 1.0, lmi_eps: float = 1e-2,
+                     accel_max: float = 3.0, p_min=1.0, lmi_eps: float = 1e-2,
                      name: str = "Theorem 2 with P, W = P L fixed") -> PrintedCertificate:
     """Certify a given (e.g. printed) Theorem 2 solution on ``model``: with ``P_i^j``
     (diagonals, (K, 4, 2)) and ``W_i^j = P_i^j L_i^j`` held fixed, solve (18)-(19) for
     ``M_i``, ``gamma_i`` (min sum gamma_i), certify (17)-(19) from the eigenvalues, and
     report the Metzler margins and the smallest ``epsilon`` of (20). Raises
-    :class:`InfeasibleDesign` when (18)-(19) have no solution for these ``P``, ``L``."""
+    :class:`InfeasibleDesign` when (18)-(19) have no solution for these ``P``, ``L``.
+    ``p_min`` (scalar or (K,)): the smallest diagonal of ``P_i^j`` after rescaling mode i."""
     P_diag = np.asarray(P_diag, dtype=float)
     L = np.asarray(L, dtype=float)
     K = model.n_modes
@@ -502,7 +507,7 @@ def certify_solution(model: SwitchedIntervalModel, P_diag, L, eps_decay: float =
         raise ValueError(f"P_diag must be positive ({K}, 4, 2), got shape {P_diag.shape}")
     if L.shape != (K, 4, N_STATE):
         raise ValueError(f"L must be ({K}, 4, 2), got shape {L.shape}")
-    scale = p_min / P_diag.min(axis=(1, 2))
+    scale = np.asarray(p_min, dtype=float) / P_diag.min(axis=(1, 2))
     Ps = P_diag * scale[:, None, None]
     d = LMIDesign(name, eps=lmi_eps)
     for i in range(K):
@@ -1135,7 +1140,7 @@ def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None, others: d
     for c, nm in enumerate(("$|L_1|$ ($v_y$ row) [m/s]", "$|L_2|$ ($r$ row) [1/s]")):
         for k, (lab, d) in enumerate(designs.items()):
             ax[c].plot(idx, np.abs(d.L[..., c, 0]).ravel(), marks[k % 4], mfc="none",
-                       color=PALETTE[(0, 3, 4, 2)[k % 4]], label=lab)
+                       color=PALETTE[(0, 2, 4, 3)[k % 4]], label=lab)
         if L_printed is not None:
             lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
             ax[c].plot(np.arange(len(lp)), lp, "x", color=PALETTE[1], label="printed")

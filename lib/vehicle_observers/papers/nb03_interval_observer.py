@@ -163,7 +163,7 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
     shift_des = L[1:, [1, 3], 0] - L[1:, [0, 2], 0]
     shift_pr = Lp[1:, [1, 3], 0] - Lp[1:, [0, 2], 0]
     same = np.sign(L) == np.sign(Lp)
-    mismatch = [(int(i) + 1, int(j) + 1, int(c) + 1, float(L[i, j, c]))
+    mismatch = [(int(i) + 1, int(j) + 1, int(c) + 1, round(float(L[i, j, c]), 4))
                 for i, j, c in np.argwhere(~same)]
     lr = log_ratio(L, Lp)
     ratio = np.abs(L) / np.abs(Lp)
@@ -486,7 +486,7 @@ def fig_gains(gc: dict, po: dict | None = None):
     the design with the other ``1/v_x`` polarity; 3 axes."""
     others = None
     if po is not None:
-        others = {"other 1/v_x polarity": po["designs"][(not IF.inv_vx_upper_first,
+        others = {"other $1/v_x$ polarity": po["designs"][(not IF.inv_vx_upper_first,
                                                          IF.epsilon_shift)]}
     return iv.plot_gains(gc["des"], gc["L_printed"], gc["P_printed"], others)
 
@@ -509,6 +509,7 @@ def fig_convergence(cv: dict):
                                label=f"{lab}, mode {i + 1} ($v_x$ = {cv['speeds'][i]:.1f} m/s)")
     for c, nm in enumerate(("$v_y$", "$r$")):
         ax[c].axhline(cv["frac"], color="k", lw=0.8, ls=":")
+        ax[c].set_ylim(1e-5, 2.0)
         ax[c].set_xlabel("$t - t_0$ [s]")
         ax[c].set_title(f"width of {nm}: effect of the initial box")
     ax[0].set_ylabel("$|w - w_{point}| / |w(t_0) - w_{point}(t_0)|$ [-]")
