@@ -1,8 +1,14 @@
-"""Notebook 03 (Ifqir 2017 switched TS interval observer), quick mode: key metrics."""
+"""Notebook 03 (Ifqir 2017 switched TS interval observer), quick mode: key metrics, computed
+verdicts and the exercises' solutions."""
 
 from __future__ import annotations
 
+import math
+
+import nbformat
 import pytest
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.papers import ifqir2017 as IF
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb03")]
 
@@ -14,24 +20,66 @@ def m(run_notebook):
     return run_notebook(NB)
 
 
+def _verdicts(m):
+    return {c["item"]: c for c in m["_doc"]["claims"]}
+
+
 def test_design_certified(m):
-    # Theorem 2 solved and every LMI certified with the imposed strictness margin (1e-4);
+    # Theorem 2 solved and every LMI certified with the imposed strictness margin (1e-2);
     # the Metzler entries of A^- - L C are >= 0 (the solver was asked for >= 1e-3 / P)
-    assert m["lmi_margin"] >= 0.9e-4
+    assert m["lmi_margin"] >= 0.99e-2
     assert m["metzler_margin_min"] > 0
     g = m["gamma_per_mode"]
     assert 0 < g[0] < g[1] < g[2] == pytest.approx(m["gamma"])
     # a single mode cannot beat the worst switched mode
     assert m["gamma_single_mode"] >= m["gamma"] * (1 - 1e-3)
     assert m["euler_substeps"] == 1          # epsilon = 1/T_s: one Euler step per sample
+    # the readable numpy observer step equals the compiled one (rounding only)
+    assert m["step_numpy_vs_compiled"] < 1e-12
+    # wall clock goes to build/timings, never into metrics.json
+    assert not [k for k in m if k.startswith("solve_time")]
+
+
+def test_printed_solution_certificate(m):
+    # (17)-(19) certified with the printed P, W = P L; Metzler part of (20) holds; the
+    # printed mode-1 L2 = 4383 needs epsilon ~ 4393 (chosen polarity) / 5004 (other) 1/s
+    assert m["printed_lmi_margin"] >= 0.99e-2 and m["printed_metzler_margin_min"] > 0
+    assert m["printed_min_epsilon"][0] == pytest.approx(4393, abs=1)
+    assert m["printed_min_epsilon_other_polarity"][0] == pytest.approx(5004, abs=1)
+    c = _verdicts(m)["Theorem 2: the printed P, L solve (17)-(20)"]
+    assert c["value"] == m["printed_min_epsilon"][0] and c["verdict"] == "partly"
+
+
+def test_gain_claims_are_computed(m):
+    v = _verdicts(m)
+    # one designed L1 > 0 (mode 1, vertex 2, allowed by A^-_12 > 0): 23 of 24 signs
+    assert m["L_sign_agreement"] == pytest.approx(23 / 24, abs=1e-4)
+    assert v["Theorem 2 solution: signs of L"]["verdict"] == "partly"
+    # magnitudes: within a factor 10 on average, not within 2; the chosen polarity is closer
+    assert 0.301 < m["log_ratio_chosen"] <= 1
+    assert v["Theorem 2 solution: magnitudes of L"]["verdict"] == "partly"
+    assert m["log_ratio_chosen"] < m["log_ratio_other"]
+    assert m["gamma_single_objective"] <= m["gamma_per_mode_objective_max"] * (1 + 1e-3)
 
 
 def test_enclosure_guaranteed_on_lpv_truth(m):
     # the theorem's situation: 100 % at every sample, no tolerance
     assert m["lpv_enclosure_vy"] == 1.0 and m["lpv_enclosure_r"] == 1.0
     assert m["lpv_max_excursion_vy"] == 0.0 and m["lpv_max_excursion_r"] == 0.0
-    # intervals are informative: mean v_y width well below the 1 m/s initial box
+    c = _verdicts(m)["Theorem 1 guarantee; Figs. 'interval observer of lateral velocity / "
+                     "yaw rate'"]
+    assert c["verdict"] == "reproduced" and not c["proves_little"]
     assert m["lpv_width_mean_vy"] < 0.2
+
+
+def test_convergence_time(m):
+    # v_y settles at the open-loop rate (slower at higher speed), r within a few ms
+    t = m["conv_time"]
+    assert t[0][0] < t[1][0] < t[2][0] <= 2.0
+    assert max(r[1] for r in t) < 0.05
+    assert m["conv_time_max"] == max(max(r) for r in t)
+    assert abs(m["conv_time_max"] - m["conv_time_single_max"]) < 0.05 * m["conv_time_max"]
+    assert _verdicts(m)["conclusion: short convergence time"]["verdict"] == "reproduced"
 
 
 def test_nonlinear_truth_and_switching_ratio(m):
@@ -39,9 +87,13 @@ def test_nonlinear_truth_and_switching_ratio(m):
     # r misses only where the Gaussian gyro noise exceeds the 3-sigma bound
     assert m["nl_enclosure_vy"] > 0.99 and m["nl_enclosure_r"] > 0.99
     assert m["nl_max_excursion_r"] < 0.01
-    # the switched/non-switched width ratio is reported (close to one, see the notebook)
-    assert 0.5 < m["lpv_width_ratio_vy"] < 2.0
-    assert 0.5 < m["nl_width_ratio_vy"] < 2.0
+    v = _verdicts(m)
+    assert v["interval plots on Satory data (nonlinear zone reached)"]["verdict"] == (
+        "reproduced" if min(m["nl_enclosure_vy"], m["nl_enclosure_r"]) == 1 else "partly")
+    # switching does not tighten the v_y width here (L cannot act on the v_y row)
+    assert 0.9 < m["lpv_width_ratio_vy"] < 1.1
+    assert v["switching on v_x bands tightens the intervals"]["verdict"] == (
+        "partly" if m["nl_width_ratio_vy"] < 1 else "differs")
 
 
 def test_real_log_enclosure_by_lateral_acceleration(m):
@@ -51,14 +103,43 @@ def test_real_log_enclosure_by_lateral_acceleration(m):
     assert m["revs_enclosure_vy_ay_6_99"] < m["revs_enclosure_vy_ay_0_3"] - 0.2
     assert m["revs_enclosure_r"] > 0.9
     assert 0.0 < m["revs_width_mean_vy"] < 2.0
+    c = _verdicts(m)["robust interval estimation on experimental data"]
+    assert c["verdict"] == "not comparable"
+
+
+def test_exercise_solutions(m):
+    # 1: largest relative uncertainty keeping entry (2,1) of A^- - L C >= 0
+    a, b = IF.c_r0 * IF.l_r, IF.c_f0 * IF.l_f
+    assert m["ex1_a_max"] == pytest.approx((a - b) / (a + b), rel=1e-3)
+    assert m["ex1_a_max"] == pytest.approx(m["max_rel_unc_metzler"], rel=1e-3)
+    # 2: the hand value is the certificate's mode-1 epsilon with 1/v_min at vertex 1
+    assert m["ex2_epsilon_by_hand"] == pytest.approx(
+        m["printed_min_epsilon_other_polarity"][0], rel=1e-3)
+    # 3: Euler substeps of the design with the printed epsilon (chosen polarity)
+    assert m["ex3_substeps"] == math.ceil(IF.Ts * m["epsilon_printed"][0] - 1e-9)
 
 
 def test_claims_and_files(m):
     doc = m["_doc"]
-    verdicts = {c["item"]: c["verdict"] for c in doc["claims"]}
-    assert verdicts["Theorem 1 guarantee; Figs. 'interval observer of lateral velocity / "
-                    "yaw rate'"] == "reproduced"
-    assert len(doc["claims"]) == 5
+    assert len(doc["claims"]) == 8
+    assert all(c["rule"] != "(hand-written verdict)" for c in doc["claims"])
     for f in ("intervals_emulated_lpv.png", "intervals_revs.png", "inputs_sigma_emulated.png",
-              "widths_switched_vs_single.png", "gains_vs_printed.png"):
+              "widths_switched_vs_single.png", "gains_vs_printed.png", "convergence_widths.png",
+              "intervals_emulated_nonlinear.png"):
         assert (m["_dir"] / f).exists()
+
+
+def test_notebook_teaches():
+    nb = nbformat.read(str(repo_root() / "notebooks" / f"{NB}.ipynb"), as_version=4)
+    src = [c.source for c in nb.cells]
+    assert "What you will learn" in src[0]
+    assert sum("knobs" in c.metadata.get("tags", []) for c in nb.cells) == 1
+    ex = [s for s in src if s.startswith("**Exercise")]
+    sol = [s for s in src if s.startswith("**Solution")]
+    assert len(ex) >= 2 and len(sol) == len(ex)
+    assert any(s.startswith("## Appendix") for s in src)
+    first_code = next(i for i, c in enumerate(nb.cells) if c.cell_type == "code")
+    assert len(src[0].split()) < 300 and first_code == 1
+    body = "\n".join(s for s in src if not s.startswith("## Appendix"))
+    for eq in ("3-4", "6-7", "22", "11", "17", "18", "19", "20", "21"):
+        assert f"({eq})" in body or f"\\tag{{{eq}}}" in body, eq

@@ -388,3 +388,71 @@ def test_interval_metrics():
     assert m["max_excursion_vy"] == 1.0 and m["width_mean_r"] == 1.0
     m2 = iv.interval_metrics(res, truth, mask=np.array([True, False, False, True]))
     assert m2["enclosure_vy"] == 1.0
+
+
+# ------------------------------------------------------------------ printed-solution checks -
+def test_min_epsilon_shift_known_answer():
+    """With L = 0 the (20) shift is the largest |diagonal| of A^- over the box corners:
+    entry (1,1) or (2,2) at the vertex with 1/v_x = 1/v_min and the largest stiffness."""
+    m = pp.model()
+    eps = iv.min_epsilon_shift(m, np.zeros((3, 4, 2)))
+    e = np.asarray(pp.bands.edges)
+    cr, cf = VEH.xi_box[0, 1], VEH.xi_box[1, 1]
+    want = [max((cf + cr) / VEH.m, (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z) / v
+            for v in e[:-1]]
+    np.testing.assert_allclose(eps, want, rtol=1e-12)
+    # a gain L2 = g at every vertex adds g to the (2,2) entry
+    L = np.zeros((3, 4, 2))
+    L[..., 1] = 500.0
+    d22 = (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z / e[:-1] + 500.0
+    np.testing.assert_allclose(iv.min_epsilon_shift(m, L), np.maximum(want, d22), rtol=1e-12)
+    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
+        iv.min_epsilon_shift(m, np.zeros((2, 4, 2)))
+
+
+def test_certify_solution_of_a_design_reaches_its_gamma(design):
+    """A design's own P, L (not rescaled: p_min = its own min P per mode) are feasible for
+    the fixed-P problem with the same strictness margin (its M works) and optimal, so the
+    certified gamma_i equals the design's; rescaled to min P = 1 they stay certified."""
+    pm = design.P.min(axis=(1, 2))
+    c = iv.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
+                            pp.accel_max, p_min=pm)
+    assert c.solution.certificate.ok and c.lmi_margin >= 0.99e-2
+    np.testing.assert_allclose(c.scale, 1.0)
+    # same optimum: fixing P, W at the optimal values leaves gamma_i where the design put it
+    # (to the interior-point solver's accuracy; observed differences ~1e-5 relative)
+    np.testing.assert_allclose(c.gammas, design.gammas, rtol=1e-4)
+    c = iv.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
+                            pp.accel_max)
+    np.testing.assert_allclose(c.scale, 1.0 / pm)
+    assert c.solution.certificate.ok
+    np.testing.assert_allclose(c.metzler_margins, design.metzler_margins)
+    assert np.all(c.min_epsilon <= pp.epsilon_shift * (1 + 1e-6))
+    with pytest.raises(ValueError, match="P_diag must be positive"):
+        iv.certify_solution(design.model, -design.P, design.L[..., 0])
+    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
+        iv.certify_solution(design.model, design.P, design.L)
+
+
+def test_settling_time_known_answers():
+    t = np.arange(0.0, 10.0, 0.001)
+    w_ref = np.full_like(t, 0.3)
+    w = w_ref + np.exp(-t / 0.5)                 # 2 % at t = 0.5 ln 50
+    assert iv.settling_time(t, w, w_ref) == pytest.approx(0.5 * np.log(50), abs=2e-3)
+    assert iv.settling_time(t, w, w_ref, frac=0.1) == pytest.approx(0.5 * np.log(10), abs=2e-3)
+    # a late bump above the threshold moves the settling time behind it
+    w2 = w.copy()
+    w2[(t > 4.0) & (t < 4.5)] += 0.05
+    assert iv.settling_time(t, w2, w_ref) == pytest.approx(4.5, abs=2e-3)
+    # never settles within the record (constant or growing effect)
+    assert iv.settling_time(t, w_ref + 1.0, w_ref) == float("inf")
+    assert iv.settling_time(t, w_ref + 1 + t, w_ref) == float("inf")
+    # gone after the first step / no initial-box effect at all
+    w3 = w_ref.copy()
+    w3[0] += 1.0
+    assert iv.settling_time(t, w3, w_ref) == pytest.approx(0.001)
+    assert iv.settling_time(t, w_ref, w_ref) == 0.0
+    with pytest.raises(ValueError, match="equal length"):
+        iv.settling_time(t, w[:-1], w_ref)
+    with pytest.raises(ValueError, match=r"frac must be in \(0, 1\)"):
+        iv.settling_time(t, w, w_ref, frac=1.5)

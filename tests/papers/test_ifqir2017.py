@@ -65,3 +65,30 @@ def test_designed_gains_vs_printed():
     np.testing.assert_allclose(d, [[5.0, 5.0], [5.5, 6.5]], rtol=0.25)
     ratio = np.abs(L[1:]) / np.abs(pp.L_printed[1:])
     assert np.all((ratio > 0.3) & (ratio < 10))
+
+
+def test_vertex_polarity_of_inv_vx_is_the_one_closer_to_the_printed_gains():
+    """The slides do not say which vertices carry the upper bound of ``1/v_x``. The chosen
+    polarity (``pp.inv_vx_upper_first``) gives designed gains closer to the printed ones
+    (mean |log10 L/L_printed| over the 3 modes) and the printed pattern of mode 1: the two
+    largest L2 at vertices 1-2 (printed 4383, 4381 against 261, 272); the other polarity
+    puts them at vertices 3-4."""
+    chosen = pp.design()
+    other = pp.design(inv_vx_upper_first=not pp.inv_vx_upper_first)
+    lr = lambda d: float(np.abs(np.log10(np.abs(d.L[..., 0]) / np.abs(pp.L_printed))).mean())
+    assert lr(chosen) < lr(other) - 0.1
+    assert set(np.argsort(pp.L_printed[0, :, 1])[-2:]) == {0, 1}
+    assert set(np.argsort(chosen.L[0, :, 1, 0])[-2:]) == {0, 1}
+    assert set(np.argsort(other.L[0, :, 1, 0])[-2:]) == {2, 3}
+    # chosen: vertices 1-2 carry the lower bound 1/v_max of every band, 3-4 the upper one
+    m = pp.model()
+    assert not pp.inv_vx_upper_first
+    np.testing.assert_allclose(m.z_vertices[:, :2, 0], m.zmin[:, None, 0].repeat(2, 1))
+    np.testing.assert_allclose(m.z_vertices[:, 2:, 0], m.zmax[:, None, 0].repeat(2, 1))
+    # both polarities describe the same TS model: blended A equals A(rho) at any speed
+    v = np.array([0.3, 4.0, 7.5, 12.0, 17.0])
+    for mod in (m, pp.model(inv_vx_upper_first=True)):
+        sig, h = mod.memberships(v)
+        A = np.einsum("nj,njab->nab", h, mod.A_nom[sig])
+        want = np.array([iv.lpv_A(1 / x, x, pp.vehicle.xi0, pp.vehicle) for x in v])
+        np.testing.assert_allclose(A, want, rtol=1e-12, atol=1e-9)

@@ -47,8 +47,13 @@ def _values(d):
     return {k: v[0] for k, v in d["metrics"].items()}
 
 
-def test_metrics_are_value_unit_note_triples(ds, lpv, nl, revs):
-    for d in (ist.box_summary(), ds, ist.gain_comparison(ds["des"]), lpv, nl, revs):
+@pytest.fixture(scope="module")
+def conv(lpv, ds):
+    return ist.convergence_study(lpv, ds["des"], ds["des1"])
+
+
+def test_metrics_are_value_unit_note_triples(ds, lpv, nl, revs, conv):
+    for d in (ist.box_summary(), ds, ist.gain_comparison(ds["des"]), lpv, nl, revs, conv):
         for k, v in d["metrics"].items():
             assert len(v) == 3 and isinstance(v[1], str) and isinstance(v[2], str), k
 
@@ -78,6 +83,52 @@ def test_design_study(ds):
              for i in range(P.shape[0] - 1) for a, b in ((i, i + 1), (i + 1, i)))
     assert v["dwell_time_bound"] == pytest.approx(math.log(mu) / IF.eps_decay)
     assert ds["text"].count("\n") == 4
+    # wall clock is a timing, never a metric
+    assert set(ds["timings"]) == {"solve_time", "solve_time_single"}
+    assert not any("time" in k and "dwell" not in k for k in ds["metrics"])
+
+
+@pytest.mark.parametrize("pol", [True, False])
+def test_observer_step_numpy_equals_compiled(pol):
+    des = IF.design(inv_vx_upper_first=pol)
+    assert ist.observer_step_check(des, seed=1) < 1e-12
+    # the check is sensitive: gains of the other polarity's vertex order break it
+    wrong = iv.IntervalDesign(**{**des.__dict__, "L": des.L[:, [2, 3, 0, 1]]})
+    assert ist.observer_step_check(wrong, seed=1) > 1e-6
+
+
+def test_convergence_starts_known_answer():
+    t = np.arange(0.0, 20.0, 0.5)
+    vx = np.linspace(0.5, 17.0, len(t))
+    starts = ist.convergence_starts(t, vx, IF.bands, horizon=2.0)
+    mids = [(0.1 + 6) / 2, (6 + 11) / 2, (11 + 17.5) / 2]
+    assert starts == [int(np.argmin(np.abs(vx - m))) for m in mids]
+    # with a 6 s horizon the mode-3 mid speed is too late: the last usable sample is taken
+    starts = ist.convergence_starts(t, vx, IF.bands, horizon=6.0)
+    assert starts[2] == len(t) - 12 - 1 and vx[starts[2]] > 11.0
+    assert ist.convergence_starts(t, np.full(len(t), 3.0), IF.bands, 2.0)[1:] == [-1, -1]
+
+
+def test_convergence_study(conv, lpv, ds):
+    """v_y: L cannot act on the v_y row (C = [0 1]), so the initial-box effect on the v_y
+    width decays at the open-loop rate |A_11| ~ (c_f + c_r)/(m v_x) in both observers:
+    equal times, ~ ln(1/frac) / |A_11(v_x(t0))|; r is much faster (output injection)."""
+    ts, t1 = conv["times"]["switched"], conv["times"]["single mode"]
+    # the 10 s segment reaches modes 1-2 (up to ~9 m/s), not mode 3: NaN there
+    assert ts.shape == (3, 2) and np.all(np.isfinite(ts[:2])) and np.all(np.isnan(ts[2]))
+    assert conv["starts"][2] == -1
+    ts, t1 = ts[:2], t1[:2]
+    np.testing.assert_allclose(ts[:, 0], t1[:, 0], rtol=0.05)
+    veh = ds["des"].model.veh
+    a11 = (veh.c_f0 + veh.c_r0) / (veh.m * np.asarray(conv["speeds"][:2]))
+    np.testing.assert_allclose(ts[:, 0], np.log(1 / ist.SETTLE_FRAC) / a11, rtol=0.35)
+    assert np.all(ts[:, 1] < 0.1 * ts[:, 0])
+    v = _values(conv)
+    assert v["conv_time_max"] == ts.max()
+    # independent recomputation of one settling time from the stored curve
+    tt, dev = conv["curves"]["switched"][1]
+    k = np.flatnonzero(dev[:, 0] > ist.SETTLE_FRAC)[-1]
+    assert ts[1, 0] == pytest.approx(tt[k + 1])
 
 
 def test_gain_comparison_known_answer():
@@ -88,20 +139,80 @@ def test_gain_comparison_known_answer():
     np.testing.assert_array_equal(gc["shift_designed"], gc["shift_printed"])
     np.testing.assert_allclose(gc["shift_printed"], [[-6.2345 + 11.1729, -7.7325 + 12.6483],
                                                      [-13.6983 + 19.1574, -14.0961 + 19.5678]])
-    assert gc["sign_ok"]
+    assert gc["sign_agreement"] == 1.0 and gc["sign_mismatch"] == []
+    assert _values(gc)["L_log_ratio_mean"] == 0.0
     fake.L[2, 1, 1, 0] = -1.0                           # one L2 < 0 in mode 3
-    assert not ist.gain_comparison(fake)["sign_ok"]
-    fake.L = 2.0 * IF.L_printed[..., None]
-    assert ist.gain_comparison(fake)["ratio_range"] == [2.0, 2.0]
+    gc = ist.gain_comparison(fake)
+    assert gc["sign_agreement"] == 23 / 24 and gc["sign_mismatch"] == [(3, 2, 2, -1.0)]
+    fake.L = 10.0 * IF.L_printed[..., None]             # mode 1 included in the range
+    gc = ist.gain_comparison(fake)
+    assert gc["ratio_range"] == pytest.approx([10.0, 10.0])
+    assert _values(gc)["L_log_ratio_mean"] == pytest.approx(1.0)
 
 
-def test_gain_comparison_of_the_design(ds):
-    gc = ist.gain_comparison(ds["des"])
-    L = ds["des"].L
-    assert gc["shift_designed"][1, 0] == L[2, 1, 0, 0] - L[2, 0, 0, 0]
-    assert gc["ratio_range"][0] <= gc["ratio_range"][1]
-    assert set(gc["metrics"]) == {"L_designed", "P_designed", "L1_shift_designed",
-                                  "L1_shift_printed"}
+def test_designed_sign_differences_are_allowed_by_metzler(ds):
+    """The design differs from the printed signs only where the Metzler entry (1,2),
+    ``A^-_12 - L1 >= 0``, allows a positive L1: mode 1, vertex 2 (1/v_max = 1/6 s/m,
+    v_min = 0.1 m/s), where ``A^-_12 = (c_r l_r - c_f l_f)^- / (6 m) - 0.1 > 0``; min gamma
+    pushes L1 onto that bound."""
+    des = ds["des"]
+    gc = ist.gain_comparison(des)
+    A12 = des.model.A_lo[..., 0, 1]
+    assert np.all(des.L[..., 0, 0] <= A12)
+    assert [m[:3] for m in gc["sign_mismatch"]] == [(1, 2, 1)]
+    veh = des.model.veh
+    a12 = ((1 - veh.rel_unc) * veh.c_r0 * veh.l_r - (1 + veh.rel_unc) * veh.c_f0 * veh.l_f) \
+        / (veh.m * 6.0) - 0.1
+    assert A12[0, 1] == pytest.approx(a12)
+    L1 = des.L[0, 1, 0, 0]
+    assert gc["sign_mismatch"][0][3] == round(L1, 4) and 0 < L1 <= a12 and a12 - L1 < 0.01 * a12
+    assert gc["sign_agreement"] == 23 / 24
+    np.testing.assert_allclose(gc["log_ratio"], np.abs(np.log10(np.abs(des.L[..., 0])
+                                                                / np.abs(IF.L_printed))))
+
+
+@pytest.fixture(scope="module")
+def printed():
+    return ist.printed_solution_study()
+
+
+def test_printed_solution_minimal_epsilon_known_answer(printed):
+    """The printed mode-1 ``L2 = 4383`` sits at vertices 1-2; the diagonal (2,2) of
+    ``A^- - L C`` there is ``-(c_r^+ l_r^2 + c_f^+ l_f^2) / (I_z v) - 4383`` with ``v = 6``
+    (chosen polarity, 1/v_max) or ``v = 0.1`` m/s (other polarity, 1/v_min)."""
+    v = IF.vehicle
+    k = (1 + v.rel_unc) * (v.c_r0 * v.l_r**2 + v.c_f0 * v.l_f**2) / v.I_z
+    assert printed["cert"].min_epsilon[0] == pytest.approx(k / 6.0 + 4383.0)
+    assert printed["cert_other"].min_epsilon[0] == pytest.approx(k / 0.1 + 4383.0)
+    assert printed["min_epsilon"] == pytest.approx(k / 6.0 + 4383.0)
+    assert printed["min_epsilon"] > IF.epsilon_shift          # (20) excludes the printed L
+    for c in (printed["cert"], printed["cert_other"]):
+        assert c.metzler_margins.min() > 0                      # Metzler part of (20) holds
+        assert c.lmi_margin >= 0.99e-2                          # (17)-(19) certified
+        np.testing.assert_allclose(c.scale * IF.P_printed.min(axis=(1, 2)), 1.0)
+
+
+def test_printed_solution_is_feasible_for_the_design_with_its_epsilon(printed):
+    """With epsilon >= the printed gains' own shift, the rescaled printed P, W are a feasible
+    point of our Theorem 2 problem, so the optimal sum of gamma_i cannot exceed theirs."""
+    eps = float(np.ceil(printed["min_epsilon"]))
+    des = IF.design(epsilon_shift=eps)
+    assert des.gammas.sum() <= printed["cert"].gammas.sum() * (1 + 1e-3)
+
+
+def test_polarity_study_single_gamma_and_table(printed):
+    po = ist.polarity_study(printed)
+    rows = po["rows"]
+    assert [(r["1/v_x upper at vertices 1-2"], r["epsilon [1/s]"]) for r in rows[:4]] == [
+        (False, 1000.0), (False, float(np.ceil(printed["cert"].min_epsilon.max()))),
+        (True, 1000.0), (True, float(np.ceil(printed["cert_other"].min_epsilon.max())))]
+    # one shared gamma minimises the worst mode: not above the per-mode design's worst gamma
+    sg = po["single_gamma"]
+    assert sg.gammas.tolist() == [sg.gamma] * 3
+    assert sg.gamma <= rows[0]["gamma_3"] * (1 + 1e-3)
+    v = _values(po)
+    assert v["log_ratio_chosen"] == rows[0]["mean |log10 L/L_pr|"]
+    assert v["log_ratio_chosen"] < v["log_ratio_other"]        # the polarity choice
 
 
 def test_lpv_experiment_truth_and_guarantee(lpv, log, ds):
@@ -188,10 +299,12 @@ def test_summary(lpv, nl, revs):
 
 
 @pytest.mark.parametrize("name, n_axes", [
-    ("gains", 3), ("inputs_emulated", 3), ("intervals_lpv", 2), ("intervals_nonlinear", 2),
-    ("widths", 2), ("inputs_revs", 3), ("intervals_revs", 2), ("intervals_revs_zoom", 2)])
-def test_figures(name, n_axes, ds, lpv, nl, revs):
+    ("gains", 3), ("inputs_emulated", 3), ("intervals_lpv", 2), ("intervals_nonlinear", 4),
+    ("widths", 2), ("inputs_revs", 3), ("intervals_revs", 2), ("intervals_revs_zoom", 2),
+    ("convergence", 2)])
+def test_figures(name, n_axes, ds, lpv, nl, revs, conv):
     make = {"gains": lambda: ist.fig_gains(ist.gain_comparison(ds["des"])),
+            "convergence": lambda: ist.fig_convergence(conv),
             "inputs_emulated": lambda: ist.fig_inputs_emulated(lpv),
             "intervals_lpv": lambda: ist.fig_intervals_lpv(lpv),
             "intervals_nonlinear": lambda: ist.fig_intervals_nonlinear(nl),

@@ -23,7 +23,11 @@ sector-nonlinearity TS form with 4 vertices ``A_i^j(xi) = A(rho_i^j, xi)`` is ex
 (:mod:`vehicle_observers.models.ts` convention: premise order ``(1/v_x, v_x)``, bit 0 = upper
 bound, so vertex ``j = 0..3`` is ``(1/v_min, v_max), (1/v_min, v_min), (1/v_max, v_max),
 (1/v_max, v_min)``; the printed gains' pattern (``L^1, L^3`` more negative than ``L^2,
-L^4`` in every mode) is consistent with ``v_x`` being the fast index).
+L^4`` in every mode) is consistent with ``v_x`` being the fast index). The polarity of
+``1/v_x`` is not printed: ``SwitchedIntervalModel(..., inv_vx_upper_first=False)`` swaps it
+(vertices 1-2 at ``1/v_max``); :mod:`vehicle_observers.papers.ifqir2017` uses that one (closer
+to the printed gains). Vertex order only relabels the LMI unknowns; the observer kernel
+always receives its arrays in the standard order (``vertex_perm``).
 
 Element-wise bounds (Assumption 3): every entry of ``A(rho, xi)`` and ``B(xi)`` is affine
 in ``xi`` for fixed ``rho``, so its exact range over the box is reached at a corner and is
@@ -248,14 +252,20 @@ class SwitchedIntervalModel:
     B_lo, B_nom, B_hi : (2, 1)
     """
 
-    def __init__(self, veh: UncertainBicycle, bands: SpeedBands):
+    def __init__(self, veh: UncertainBicycle, bands: SpeedBands, inv_vx_upper_first: bool = True):
         self.veh = veh
         self.bands = bands
+        self.inv_vx_upper_first = bool(inv_vx_upper_first)
         e = np.asarray(bands.edges, dtype=float)
         K = bands.n_modes
         self.zmin = np.column_stack([1.0 / e[1:], e[:-1]])
         self.zmax = np.column_stack([1.0 / e[:-1], e[1:]])
         bits = vertex_bits(2)
+        if not self.inv_vx_upper_first:
+            bits = bits ^ np.array([1, 0])         # 1/v_x lower bound at vertices 1-2
+        #: model vertex j is vertex ``vertex_perm[j]`` of the standard order (bit 0 = upper)
+        self.vertex_perm = np.array([0, 1, 2, 3]) if self.inv_vx_upper_first \
+            else np.array([2, 3, 0, 1])
         self.z_vertices = np.where(bits[None, :, :] == 0, self.zmax[:, None, :],
                                    self.zmin[:, None, :])          # (K, 4, 2)
         box = veh.xi_box
@@ -279,7 +289,7 @@ class SwitchedIntervalModel:
         sig = self.bands.mode(vx)
         z = np.column_stack([1.0 / vx, vx])
         h = memberships(z, self.zmin[sig], self.zmax[sig])
-        return sig, h
+        return sig, h[:, self.vertex_perm]
 
     def membership_rate_bounds(self, accel_max: float) -> np.ndarray:
         """``phi_i^k`` of (16) from ``|dv_x/dt| <= accel_max`` [m/s^2]; shape (K, 4).
@@ -416,6 +426,122 @@ def certify_metzler(model: SwitchedIntervalModel, L: np.ndarray, name: str = "de
     return metzler_margins(model, L)
 
 
+def _add_theorem2_iss(d: LMIDesign, model: SwitchedIntervalModel, phi: np.ndarray,
+                      eps_decay: float, p_min: float, per_mode_gamma: bool = True):
+    """Add ``M_i``, ``gamma`` and the LMIs (17)-(19) of Theorem 2 to ``d``, whose variables
+    (or fixed values) ``P{i}{j}`` (diagonal) and ``W{i}{j}`` must already exist. Returns
+    the gamma-name function (mode index -> variable name)."""
+    K, n, C = model.n_modes, N_STATE, model.C
+    for i in range(K):
+        d.symmetric(f"M{i}", n)
+    gname = (lambda i: f"gamma{i}") if per_mode_gamma else (lambda i: "gamma")
+    for g in dict.fromkeys(gname(i) for i in range(K)):
+        d.scalar(g)
+    I = np.eye(n)
+    for i in range(K):
+        for j in range(4):
+            Ap = model.A_hi[i, j]
+            d.positive(f"P[{i + 1},{j + 1}]>=pI", lambda V, i=i, j=j: V[f"P{i}{j}"] - p_min * I)
+            d.positive(f"P[{i + 1},{j + 1}]+M[{i + 1}]>0",
+                       lambda V, i=i, j=j: V[f"P{i}{j}"] + V[f"M{i}"])
+
+            def iss(V, i=i, j=j, Ap=Ap):
+                P, W = V[f"P{i}{j}"], V[f"W{i}{j}"]
+                Lam = Ap.T @ P + P @ Ap - C.T @ W.T - W @ C
+                S = Lam + eps_decay * P
+                for k in range(4):
+                    S = S + phi[i, k] * (V[f"P{i}{k}"] + V[f"M{i}"])
+                return bmat([[S, P], [P, -V[gname(i)] * I]])
+
+            d.negative(f"ISS[{i + 1},{j + 1}] (19)", iss)
+    return gname
+
+
+def min_epsilon_shift(model: SwitchedIntervalModel, L) -> np.ndarray:
+    """Smallest ``epsilon`` of (20) that gains ``L`` (K, 4, 2[, 1]) satisfy, per mode (K,)
+    [1/s]: the diagonal part of (20) is ``P (A^- - L C)_aa + epsilon P_aa >= 0`` (``P``
+    diagonal positive), i.e. ``epsilon >= max_{j,a} -(A_i^{j-} - L_i^j C)_aa``."""
+    L = np.asarray(L, dtype=float)
+    L = L[..., None] if L.ndim == 3 else L
+    if L.shape != (model.n_modes, 4, N_STATE, 1):
+        raise ValueError(f"L must be ({model.n_modes}, 4, 2) or (..., 1), got {L.shape}")
+    D = np.diagonal(model.A_lo - L @ model.C, axis1=2, axis2=3)
+    return (-D).max(axis=(1, 2))
+
+
+@dataclass
+class PrintedCertificate:
+    """Theorem 2 checked for a given solution (``P`` diagonals (K, 4, 2), ``L`` (K, 4, 2))
+    held fixed, each mode rescaled to ``min diag P_i^j = p_min`` (the LMIs are homogeneous).
+
+    gammas (K,) : smallest ``gamma_i`` of (19) over ``M_i`` (certified, like any design);
+    metzler_margins (K, 4) : smallest off-diagonal of ``A^- - L C`` (>= 0: Theorem 1 holds);
+    min_epsilon (K,) [1/s] : smallest (20) shift the gains satisfy (:func:`min_epsilon_shift`);
+    solution : the certified LMI solution (margins of (17)-(19)).
+    """
+
+    gammas: np.ndarray
+    metzler_margins: np.ndarray
+    min_epsilon: np.ndarray
+    solution: LMISolution
+    scale: np.ndarray
+
+    @property
+    def lmi_margin(self) -> float:
+        return self.solution.certificate.min_margin
+
+
+def certify_solution(model: SwitchedIntervalModel, P_diag, L, eps_decay: float = 1.0,
+                     accel_max: float = 3.0, p_min=1.0, lmi_eps: float = 1e-2,
+                     name: str = "Theorem 2 with P, W = P L fixed") -> PrintedCertificate:
+    """Certify a given (e.g. printed) Theorem 2 solution on ``model``: with ``P_i^j``
+    (diagonals, (K, 4, 2)) and ``W_i^j = P_i^j L_i^j`` held fixed, solve (18)-(19) for
+    ``M_i``, ``gamma_i`` (min sum gamma_i), certify (17)-(19) from the eigenvalues, and
+    report the Metzler margins and the smallest ``epsilon`` of (20). Raises
+    :class:`InfeasibleDesign` when (18)-(19) have no solution for these ``P``, ``L``.
+    ``p_min`` (scalar or (K,)): the smallest diagonal of ``P_i^j`` after rescaling mode i."""
+    P_diag = np.asarray(P_diag, dtype=float)
+    L = np.asarray(L, dtype=float)
+    K = model.n_modes
+    if P_diag.shape != (K, 4, N_STATE) or np.any(P_diag <= 0):
+        raise ValueError(f"P_diag must be positive ({K}, 4, 2), got shape {P_diag.shape}")
+    if L.shape != (K, 4, N_STATE):
+        raise ValueError(f"L must be ({K}, 4, 2), got shape {L.shape}")
+    scale = np.asarray(p_min, dtype=float) / P_diag.min(axis=(1, 2))
+    Ps = P_diag * scale[:, None, None]
+    d = LMIDesign(name, eps=lmi_eps)
+    for i in range(K):
+        for j in range(4):
+            d.fixed(f"P{i}{j}", np.diag(Ps[i, j]))
+            d.fixed(f"W{i}{j}", (Ps[i, j] * L[i, j])[:, None])
+    phi = model.membership_rate_bounds(accel_max)
+    gname = _add_theorem2_iss(d, model, phi, eps_decay, 0.0)   # (17) as printed: P > 0
+    sol = d.solve(objective=lambda V: sum(V[gname(i)] for i in range(K)))
+    return PrintedCertificate(np.array([float(sol[gname(i)]) for i in range(K)]),
+                              metzler_margins(model, L[..., None]),
+                              min_epsilon_shift(model, L), sol, scale)
+
+
+def settling_time(t, w, w_ref, frac: float = 0.02) -> float:
+    """Convergence time of an interval width from its initial box: the first time [s]
+    (from ``t[0]``) after which ``|w - w_ref| <= frac * |w[0] - w_ref[0]|`` at every later
+    sample, ``w_ref`` being the width of the same observer started from a point box (same
+    inputs), so only the effect of the initial box is measured. ``inf`` if it never
+    settles within the record. ``t``, ``w``, ``w_ref`` (N,)."""
+    t, w, w_ref = (np.asarray(a, dtype=float) for a in (t, w, w_ref))
+    if not (t.shape == w.shape == w_ref.shape) or t.ndim != 1 or len(t) < 2:
+        raise ValueError(f"settling_time: t, w, w_ref must be 1-D of equal length, got "
+                         f"{t.shape}, {w.shape}, {w_ref.shape}")
+    if not 0 < frac < 1:
+        raise ValueError(f"settling_time: frac must be in (0, 1), got {frac}")
+    dev = np.abs(w - w_ref)
+    out = dev > frac * dev[0]
+    if not out.any():
+        return 0.0
+    k = int(np.flatnonzero(out)[-1])
+    return float("inf") if k == len(t) - 1 else float(t[k + 1] - t[0])
+
+
 def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
                     epsilon_shift: float | None = 1000.0, accel_max: float = 3.0,
                     phi: np.ndarray | None = None, p_min: float = 1.0,
@@ -459,30 +585,13 @@ def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
     C = model.C
     d = LMIDesign(name, eps=lmi_eps)
     for i in range(K):
-        d.symmetric(f"M{i}", n)
         for j in range(4):
             d.diagonal(f"P{i}{j}", n)
             d.matrix(f"W{i}{j}", (n, C.shape[0]))
-    gname = (lambda i: f"gamma{i}") if per_mode_gamma else (lambda i: "gamma")
-    for g in dict.fromkeys(gname(i) for i in range(K)):
-        d.scalar(g)
-    I = np.eye(n)
+    gname = _add_theorem2_iss(d, model, phi, eps_decay, p_min, per_mode_gamma)
     for i in range(K):
         for j in range(4):
-            Ap, Am = model.A_hi[i, j], model.A_lo[i, j]
-            d.positive(f"P[{i + 1},{j + 1}]>=pI", lambda V, i=i, j=j: V[f"P{i}{j}"] - p_min * I)
-            d.positive(f"P[{i + 1},{j + 1}]+M[{i + 1}]>0",
-                       lambda V, i=i, j=j: V[f"P{i}{j}"] + V[f"M{i}"])
-
-            def iss(V, i=i, j=j, Ap=Ap):
-                P, W = V[f"P{i}{j}"], V[f"W{i}{j}"]
-                Lam = Ap.T @ P + P @ Ap - C.T @ W.T - W @ C
-                S = Lam + eps_decay * P
-                for k in range(4):
-                    S = S + phi[i, k] * (V[f"P{i}{k}"] + V[f"M{i}"])
-                return bmat([[S, P], [P, -V[gname(i)] * I]])
-
-            d.negative(f"ISS[{i + 1},{j + 1}] (19)", iss)
+            Am = model.A_lo[i, j]
             d.nonnegative(f"Metzler[{i + 1},{j + 1}] (20)",
                           lambda V, i=i, j=j, Am=Am: _offdiag(V[f"P{i}{j}"] @ Am
                                                               - V[f"W{i}{j}"] @ C))
@@ -781,9 +890,10 @@ def run_interval_observer(design: IntervalDesign, dt: float, vx, u_lo, u_hi, y, 
                          f"{dt / substeps * rate:.3g} > 1 breaks the discrete positivity; use "
                          f"substeps >= {math.ceil(dt * rate)}")
     m = design.model
-    Mp = np.ascontiguousarray(m.A_hi - design.L @ m.C)
-    Mm = np.ascontiguousarray(m.A_lo - design.L @ m.C)
-    Lg = np.ascontiguousarray(design.L[..., 0])
+    perm = m.vertex_perm                 # the kernel weights vertices in the standard order
+    Mp = np.ascontiguousarray((m.A_hi - design.L @ m.C)[:, perm])
+    Mm = np.ascontiguousarray((m.A_lo - design.L @ m.C)[:, perm])
+    Lg = np.ascontiguousarray(design.L[..., 0][:, perm])
     xl, xh, sig = _interval_loop(vx, u_lo, u_hi, y, float(y_noise), x0_lo, x0_hi, int(substeps),
                                  float(dt), edges, m.zmin, m.zmax, Mp, Mm, Lg,
                                  np.ascontiguousarray(m.B_lo[:, 0]),
@@ -910,6 +1020,10 @@ def share_in_box(stiffness, lo: float, hi: float, mask=None) -> float:
     return float(np.mean((s >= lo) & (s <= hi)))
 
 
+#: tableau-colorblind10 colours: switched / single-mode / third observer
+PALETTE = ("#006BA4", "#FF800E", "#595959", "#5F9ED1", "#C85200")
+
+
 def plot_inputs(t, vx, delta, sigma, bands: SpeedBands, title: str = ""):
     """Steering, speed with the band edges, and sigma(t) (the slides' input figures)."""
     import matplotlib.pyplot as plt
@@ -918,98 +1032,131 @@ def plot_inputs(t, vx, delta, sigma, bands: SpeedBands, title: str = ""):
 
     fig, ax = plt.subplots(3, 1, sharex=True, figsize=(9.0, 6.0))
     tt, d, v, s = decimate(t, delta, vx, np.asarray(sigma) + 1, max_points=2000)
-    ax[0].plot(tt, np.degrees(d))
-    ax[0].set_ylabel("road-wheel steering [deg]")
-    ax[1].plot(tt, v)
+    ax[0].plot(tt, np.degrees(d), color=PALETTE[0])
+    ax[0].set_ylabel(r"$\delta_f$ [deg]")
+    ax[1].plot(tt, v, color=PALETTE[0])
     for e in bands.edges:
         ax[1].axhline(e, color="0.5", ls=":", lw=0.8)
-    ax[1].set_ylabel("v_x [m/s]")
-    ax[2].step(tt, s, where="post")
-    ax[2].set_ylabel("sigma(t)")
+    ax[1].set_ylabel("$v_x$ [m/s]")
+    ax[2].step(tt, s, where="post", color=PALETTE[0])
+    ax[2].set_ylabel(r"$\sigma(t)$ [mode]")
     ax[2].set_yticks(range(1, bands.n_modes + 1))
-    ax[2].set_xlabel("t [s]")
+    ax[2].set_xlabel("$t$ [s]")
     if title:
         fig.suptitle(title)
     return fig
 
 
+_STATES = (("v_y", "m/s"), ("r", "rad/s"))
+
+
+def _band(ax, tt, lo, hi, k, label):
+    col = PALETTE[k % len(PALETTE)]
+    ax.fill_between(tt, lo, hi, color=col, alpha=0.35 if k == 0 else 0.18, lw=0,
+                    label=label, zorder=2 - k)
+    ax.plot(tt, lo, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
+    ax.plot(tt, hi, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
+
+
 def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=None,
-                   truth_label: str = "truth"):
+                   truth_label: str = "truth", error_panel: bool = False):
     """Interval estimates of v_y and r (``results = {label: IntervalResult}``) with the
-    reference (the slides' two result figures, stacked)."""
+    reference (the slides' two result figures, stacked). ``error_panel=True`` adds, per
+    state, a panel with each observer's interval relative to the reference
+    (``x^- - x`` and ``x^+ - x``: the reference is enclosed where the band contains 0)."""
     import matplotlib.pyplot as plt
 
     from vehicle_observers.core.arrays import decimate
 
     t = np.asarray(t)
     sel = np.ones(len(t), bool) if tlim is None else (t >= tlim[0]) & (t <= tlim[1])
-    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9.0, 5.6))
-    for c, (nm, ref, unit) in enumerate((("v_y", truth_vy, "m/s"), ("r", truth_r, "rad/s"))):
+    refs = (truth_vy, truth_r)
+    nrow = 4 if error_panel else 2
+    fig, ax = plt.subplots(nrow, 1, sharex=True, figsize=(9.0, 2.8 * nrow))
+    for c, (nm, unit) in enumerate(_STATES):
+        a = ax[2 * c] if error_panel else ax[c]
         for k, (lab, res) in enumerate(results.items()):
             tt, lo, hi = decimate(t[sel], res.x_lo[sel, c], res.x_hi[sel, c], max_points=2000)
-            col = f"C{k + 1}"
-            ax[c].fill_between(tt, lo, hi, color=col, alpha=0.25 if k == 0 else 0.15,
-                               lw=0, label=f"[{nm}^-, {nm}^+] {lab}")
-            ax[c].plot(tt, lo, color=col, lw=0.6)
-            ax[c].plot(tt, hi, color=col, lw=0.6)
+            _band(a, tt, lo, hi, k, f"$[{nm}^-, {nm}^+]$ {lab}")
+        ref = refs[c]
         if ref is not None:
             tt, rr = decimate(t[sel], np.asarray(ref)[sel], max_points=2000)
-            ax[c].plot(tt, rr, color="k", lw=0.9, label=truth_label)
-        ax[c].set_ylabel(f"{nm} [{unit}]")
-        ax[c].legend(loc="upper right", ncol=3)
-    ax[1].set_xlabel("t [s]")
+            a.plot(tt, rr, color="k", lw=0.9, label=truth_label, zorder=4)
+        a.set_ylabel(f"${nm}$ [{unit}]")
+        a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+        if error_panel and ref is not None:
+            e = ax[2 * c + 1]
+            r = np.asarray(ref)[sel]
+            for k, (lab, res) in enumerate(results.items()):
+                tt, lo, hi = decimate(t[sel], res.x_lo[sel, c] - r, res.x_hi[sel, c] - r,
+                                      max_points=2000)
+                _band(e, tt, lo, hi, k, f"$[{nm}^- - {nm},\\ {nm}^+ - {nm}]$ {lab}")
+            e.axhline(0.0, color="k", lw=0.9)
+            e.set_ylabel(f"interval $-$ ${nm}$ [{unit}]")
+            e.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    ax[-1].set_xlabel("$t$ [s]")
     if title:
         fig.suptitle(title)
     return fig
 
 
-def plot_widths(t, results: dict, title: str = ""):
-    """Interval widths of v_y and r (log scale) for several observers."""
+def plot_widths(t, results: dict, title: str = "", t_settle: dict | None = None):
+    """Interval widths of v_y and r (log scale) for several observers; ``t_settle``
+    ``{label: (t_vy, t_r)}`` marks each observer's convergence time [s] (from ``t[0]``)."""
     import matplotlib.pyplot as plt
 
     from vehicle_observers.core.arrays import decimate
 
     fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9.0, 4.8))
-    for lab, res in results.items():
+    for k, (lab, res) in enumerate(results.items()):
+        col = PALETTE[k % len(PALETTE)]
         tt, w1, w2 = decimate(t, res.width[:, 0], res.width[:, 1], max_points=2000)
-        ax[0].semilogy(tt, np.maximum(w1, 1e-12), label=lab)
-        ax[1].semilogy(tt, np.maximum(w2, 1e-12), label=lab)
-    ax[0].set_ylabel("width v_y [m/s]")
-    ax[1].set_ylabel("width r [rad/s]")
-    ax[1].set_xlabel("t [s]")
-    ax[0].legend()
+        ax[0].semilogy(tt, np.maximum(w1, 1e-12), color=col, label=lab)
+        ax[1].semilogy(tt, np.maximum(w2, 1e-12), color=col, label=lab)
+        for c in range(2):
+            ts = (t_settle or {}).get(lab)
+            if ts is not None and np.isfinite(ts[c]):
+                ax[c].axvline(t[0] + ts[c], color=col, ls=":", lw=1.0)
+    ax[0].set_ylabel("width $v_y^+ - v_y^-$ [m/s]")
+    ax[1].set_ylabel("width $r^+ - r^-$ [rad/s]")
+    ax[1].set_xlabel("$t$ [s]")
+    ax[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     if title:
         fig.suptitle(title)
     return fig
 
 
-def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None):
-    """Designed L (and P diagonals) next to the slides' printed values, per mode/vertex."""
+def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None, others: dict | None = None):
+    """Designed |L| (and P_22/P_11) next to the slides' printed values, per mode.vertex;
+    ``others`` ``{label: IntervalDesign}`` adds more designs (e.g. the other vertex polarity)."""
     import matplotlib.pyplot as plt
 
     K = design.L.shape[0]
-    fig, ax = plt.subplots(1, 3, figsize=(10.0, 3.4))
+    fig, ax = plt.subplots(1, 3, figsize=(10.5, 3.6))
     idx = np.arange(K * 4)
     labels = [f"{i + 1}.{j + 1}" for i in range(K) for j in range(4)]
-    for c, nm in enumerate(("L1 (v_y row)", "L2 (r row)")):
-        ax[c].plot(idx, np.abs(design.L[..., c, 0]).ravel(), "o", color="C0",
-                   label="designed |L|")
+    designs = {"designed": design, **(others or {})}
+    marks = "osd^"
+    for c, nm in enumerate(("$|L_1|$ ($v_y$ row) [m/s]", "$|L_2|$ ($r$ row) [1/s]")):
+        for k, (lab, d) in enumerate(designs.items()):
+            ax[c].plot(idx, np.abs(d.L[..., c, 0]).ravel(), marks[k % 4], mfc="none",
+                       color=PALETTE[(0, 2, 4, 3)[k % 4]], label=lab)
         if L_printed is not None:
             lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
-            ax[c].plot(np.arange(len(lp)), lp, "x", color="C1", label="printed |L|")
+            ax[c].plot(np.arange(len(lp)), lp, "x", color=PALETTE[1], label="printed")
         ax[c].set_yscale("log")
         ax[c].set_title(nm)
     if P_printed is not None:
         pp_ = np.asarray(P_printed)
         ax[2].plot(np.arange(pp_[..., 0].size), (pp_[..., 1] / pp_[..., 0]).ravel(), "x",
-                   color="C1", label="printed")
-    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", color="C0",
-               label="designed")
+                   color=PALETTE[1], label="printed")
+    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", mfc="none",
+               color=PALETTE[0], label="designed")
     ax[2].set_yscale("log")
-    ax[2].set_title("P_22 / P_11")
+    ax[2].set_title("$P_{22} / P_{11}$ [-]")
     for a in ax:
         a.set_xticks(idx)
         a.set_xticklabels(labels, rotation=90, fontsize=7)
-        a.set_xlabel("mode.vertex")
-        a.legend(fontsize=7)
+        a.set_xlabel("mode.vertex $i.j$")
+    ax[0].legend(fontsize=7)
     return fig

@@ -21,7 +21,7 @@ from vehicle_observers.observers import interval as iv
 from vehicle_observers.papers import ifqir2017 as IF
 
 #: initial box ``(x0_lo, x0_hi)`` of ``[v_y, r]`` [m/s, rad/s] on the emulated run
-BOX0 = ([-0.5, -0.1], [0.5, 0.1])
+BOX0 = (np.array([-0.5, -0.1]), np.array([0.5, 0.1]))
 #: initial box on the Revs log (higher speeds, larger initial uncertainty)
 REVS_BOX0 = ([-2.0, -0.6], [2.0, 0.6])
 #: widths are averaged after this time [s] (the initial box has decayed)
@@ -38,6 +38,10 @@ AY_BANDS = ((0, 3), (3, 6), (6, 99))
 REVS_DESPIKE = 0.05
 REVS_QUICK_SPAN = 150.0
 REVS_T_SKIP = 2.0
+#: convergence time: the initial-box effect on a width falls below this share of its start
+SETTLE_FRAC = 0.02
+#: record length [s] after each start of the convergence test
+CONV_HORIZON = 5.0
 
 
 def _ratio(a: dict, b: dict, key: str) -> float:
@@ -66,22 +70,51 @@ def box_summary(veh: iv.UncertainBicycle | None = None, model: iv.SwitchedInterv
 
 
 # ------------------------------------------------------------------ section 2 --------------
-def design_study(seed: int = 0, quick: bool = False) -> dict:
-    """Theorem 2 (17)-(21) for the switched bands (22) and for one band (non-switched), both
-    certified; the a-posteriori blended check of (19) (:func:`interval.blended_iss_margin`,
-    300 random weights per mode in quick mode, else 3000, drawn from ``seed``) and the
+def observer_step_check(des: iv.IntervalDesign, dt: float = IF.Ts, seed: int = 0,
+                        n: int = 50) -> float:
+    """Largest difference between one step of the compiled observer
+    (:func:`interval.run_interval_observer`) and the readable numpy right-hand side
+    :func:`interval.implemented_rhs` (one explicit Euler step ``x + dt f``), over ``n``
+    seeded random speeds (inside the bands), boxes, inputs and yaw rates. Rounding only
+    (~1e-15 relative) when both implement the same observer (11)."""
+    rng = np.random.default_rng(seed)
+    e = np.asarray(des.model.bands.edges, dtype=float)
+    worst = 0.0
+    for _ in range(n):
+        v = rng.uniform(e[0], e[-1])
+        c, w = rng.normal(0, 0.3, 2), rng.uniform(0, 0.5, 2)
+        u = np.sort(rng.normal(0, 0.02, 2))
+        y = rng.normal(0, 0.2)
+        res = iv.run_interval_observer(des, dt, [v, v], u[:1].repeat(2), u[1:].repeat(2),
+                                       [y, y], c - w, c + w)
+        sig, h = des.model.memberships(v)
+        fh, fl = iv.implemented_rhs(des, int(sig[0]), h[0], c + w, c - w, y, u[0], u[1])
+        worst = max(worst, float(np.abs(res.x_hi[1] - (c + w + dt * fh)).max()),
+                    float(np.abs(res.x_lo[1] - (c - w + dt * fl)).max()))
+    return worst
+
+
+def design_study(seed: int = 0, quick: bool = False, veh: iv.UncertainBicycle | None = None,
+                 bands: iv.SpeedBands | None = None) -> dict:
+    """Theorem 2 (17)-(21) for the switched bands (22) (``bands``, default
+    :data:`papers.ifqir2017.bands`) and for one band over the same range (non-switched), both
+    certified, for the vehicle ``veh`` (default :data:`papers.ifqir2017.vehicle`); the
+    a-posteriori blended check of (19) (:func:`interval.blended_iss_margin`, 300 random
+    weights per mode in quick mode, else 3000, drawn from ``seed``) and the
     average dwell time (:func:`interval.dwell_time_bound`). Returns ``des``, ``des1``
     (:class:`~vehicle_observers.observers.interval.IntervalDesign`), ``blended`` (max eigenvalue,
     < 0 is good), ``dwell`` (dict), ``text`` and ``metrics`` (gamma per mode (K,), margins
-    [1/s], solve times [s], dwell time [s])."""
-    des, des1 = IF.design(), IF.design(IF.bands_single)
+    [1/s], dwell time [s]) and ``timings`` (solver wall clock [s], for ``rep.timing``)."""
+    bands = bands or IF.bands
+    single = iv.SpeedBands((bands.edges[0], bands.edges[-1]))
+    des, des1 = IF.design(bands, veh), IF.design(single, veh)
     bl = iv.blended_iss_margin(des, n=300 if quick else 3000, seed=seed)
     dw = iv.dwell_time_bound(des)
     lines = [des.solution.summary().splitlines()[0]]
     for nm, d in (("switched", des), ("single", des1)):
         lines.append(f"{nm:9s} gamma_i = {np.round(d.gammas, 4)}, LMI margin {d.lmi_margin:.2e} "
                      f"(relative {d.lmi_relative_margin:.1e}), min Metzler margin "
-                     f"{d.min_metzler_margin:.2e} 1/s, solve {d.solve_time:.2f} s, "
+                     f"{d.min_metzler_margin:.2e} 1/s, "
                      f"ISS gain {d.iss_gain:.3f}")
     lines.append(f"(19) with blended P(h), L(h) at random frozen h (cross terms included): "
                  f"max eigenvalue {bl:.3e}")
@@ -96,41 +129,137 @@ def design_study(seed: int = 0, quick: bool = False) -> dict:
         "lmi_relative_margin": (des.lmi_relative_margin, "", ""),
         "metzler_margin_min": (des.min_metzler_margin, "1/s", ""),
         "metzler_margins": (des.metzler_margins, "1/s", ""),
-        "solve_time": (des.solve_time, "s", ""),
-        "solve_time_single": (des1.solve_time, "s", ""),
         "dwell_time_bound": (dw["dwell_time_s"], "s", ""),
     }
+    timings = {"solve_time": (des.solve_time, "s", "Theorem 2, 3 modes"),
+               "solve_time_single": (des1.solve_time, "s", "Theorem 2, one band")}
     return {"des": des, "des1": des1, "blended": bl, "dwell": dw, "text": "\n".join(lines),
-            "metrics": metrics}
+            "metrics": metrics, "timings": timings}
+
+
+def log_ratio(L, L_printed) -> np.ndarray:
+    """``|log10(|L| / |L_printed|)|`` element-wise, shape (K, 4, 2): 0 is equal magnitude,
+    1 is a factor of ten. ``L`` (K, 4, 2[, 1])."""
+    L = np.asarray(L, dtype=float)
+    L = L[..., 0] if L.ndim == 4 else L
+    return np.abs(np.log10(np.abs(L) / np.abs(np.asarray(L_printed))))
 
 
 def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> dict:
     """Designed ``L_i^j``, ``P_i^j`` next to the slides' printed solution (defaults:
-    :data:`papers.ifqir2017.L_printed` (3, 4, 2), ``P_printed`` (3, 4, 2)).
+    :data:`papers.ifqir2017.L_printed` (3, 4, 2), ``P_printed`` (3, 4, 2)), all three modes.
 
     ``L = [L1, L2]`` with ``L1`` [m/s] (v_y row) and ``L2`` [1/s] (r row).
     ``shift_designed`` / ``shift_printed`` (2, 2): shift of ``L1`` [m/s] from the ``v_max``
     to the ``v_min`` vertex (vertices 1->2 and 3->4) in modes 2-3;
-    ``ratio_range`` [min, max] of ``|L| designed / printed`` over modes 2-3; ``sign_ok``:
-    ``L1 < 0`` and ``L2 > 0`` at every vertex of modes 2-3 (the printed signs).
+    ``sign_agreement``: share of the 24 entries whose sign equals the printed one,
+    ``sign_mismatch``: ``(mode, vertex, row, designed value)`` (1-based) of the others;
+    ``log_ratio`` (K, 4, 2) :func:`log_ratio`, its mean over all modes and over modes 2-3;
+    ``ratio_range`` [min, max] of ``|L| designed / printed`` over all modes.
     """
     Lp = IF.L_printed if L_printed is None else np.asarray(L_printed)
     Pp = IF.P_printed if P_printed is None else np.asarray(P_printed)
-    shift_des = des.L[1:, [1, 3], 0, 0] - des.L[1:, [0, 2], 0, 0]
+    L = des.L[..., 0]
+    shift_des = L[1:, [1, 3], 0] - L[1:, [0, 2], 0]
     shift_pr = Lp[1:, [1, 3], 0] - Lp[1:, [0, 2], 0]
-    sign_ok = bool(np.all(des.L[1:, :, 0, 0] < 0) and np.all(des.L[1:, :, 1, 0] > 0))
-    ratio = [float(np.min(np.abs(des.L[1:, ..., 0]) / np.abs(Lp[1:]))),
-             float(np.max(np.abs(des.L[1:, ..., 0]) / np.abs(Lp[1:])))]
+    same = np.sign(L) == np.sign(Lp)
+    mismatch = [(int(i) + 1, int(j) + 1, int(c) + 1, round(float(L[i, j, c]), 4))
+                for i, j, c in np.argwhere(~same)]
+    lr = log_ratio(L, Lp)
+    ratio = np.abs(L) / np.abs(Lp)
     text = "\n".join([
-        f"designed L_i^j (rows: mode; [L1, L2] per vertex):\n{des.L[..., 0]}",
+        f"designed L_i^j (rows: mode; [L1, L2] per vertex):\n{L}",
         f"printed  L_i^j:\n{Lp}", f"designed diag P_i^j:\n{des.P}", f"printed  diag P_i^j:\n{Pp}",
         f"L1 shift v_max -> v_min vertex, modes 2-3: designed {shift_des.ravel()}  printed "
-        f"{shift_pr.ravel()}"])
-    metrics = {"L_designed": (des.L[..., 0], "", ""), "P_designed": (des.P, "", ""),
-               "L1_shift_designed": (shift_des, "", ""), "L1_shift_printed": (shift_pr, "", "")}
+        f"{shift_pr.ravel()}",
+        f"signs equal to the printed ones: {same.sum()} of {same.size}; different at (mode, "
+        f"vertex, row, value): {mismatch}"])
+    metrics = {"L_designed": (L, "", "[L1 m/s, L2 1/s] per mode, vertex"),
+               "P_designed": (des.P, "", ""),
+               "L1_shift_designed": (shift_des, "m/s", ""),
+               "L1_shift_printed": (shift_pr, "m/s", ""),
+               "L_sign_agreement": (float(same.mean()), "", "share of the 24 printed signs"),
+               "L_log_ratio_mean": (float(lr.mean()), "", "mean |log10(L/L_printed)|, 3 modes"),
+               "L_log_ratio_mean_modes23": (float(lr[1:].mean()), "", "modes 2-3")}
     return {"des": des, "L_printed": Lp, "P_printed": Pp, "shift_designed": shift_des,
-            "shift_printed": shift_pr, "sign_ok": sign_ok, "ratio_range": ratio, "text": text,
+            "shift_printed": shift_pr, "sign_agreement": float(same.mean()),
+            "sign_mismatch": mismatch, "log_ratio": lr,
+            "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text,
             "metrics": metrics}
+
+
+def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> dict:
+    """Theorem 2 checked for the slides' printed ``P``, ``L`` on the reconstructed vehicle
+    (:func:`interval.certify_solution`: ``P``, ``W = P L`` fixed, each mode rescaled to
+    ``P >= I``, min sum ``gamma_i`` over ``M_i``, every LMI certified), for both vertex
+    polarities of ``1/v_x``; the chosen one (``inv_vx_upper_first``) first. Returns
+    ``cert`` / ``cert_other`` (:class:`interval.PrintedCertificate`), ``min_epsilon`` (the
+    smallest (20) shift of the printed gains, max over modes [1/s]), ``text``, ``metrics``."""
+    out, lines, metrics = {}, [], {}
+    for key, pol in (("cert", inv_vx_upper_first), ("cert_other", not inv_vx_upper_first)):
+        c = iv.certify_solution(IF.model(inv_vx_upper_first=pol), IF.P_printed, IF.L_printed,
+                                IF.eps_decay, IF.accel_max, IF.p_min)
+        out[key] = c
+        sfx = "" if key == "cert" else "_other_polarity"
+        metrics.update({
+            f"printed_gamma_per_mode{sfx}": (c.gammas, "", "(19) with printed P, W = P L"),
+            f"printed_lmi_margin{sfx}": (c.lmi_margin, "", "min eigenvalue margin (17)-(19)"),
+            f"printed_metzler_margin_min{sfx}": (c.metzler_margins.min(), "1/s", ""),
+            f"printed_min_epsilon{sfx}": (c.min_epsilon, "1/s", "per mode")})
+        lines.append(f"1/v_x upper bound at vertices 1-2: {pol}: gamma_i {np.round(c.gammas, 4)},"
+                     f" LMI margin {c.lmi_margin:.2e}, min Metzler entry "
+                     f"{c.metzler_margins.min():.3g} 1/s, smallest epsilon of (20) per mode "
+                     f"{np.round(c.min_epsilon, 1)} 1/s")
+    metrics["epsilon_shift"] = (IF.epsilon_shift, "1/s", "(20) shift of the designs")
+    out.update(min_epsilon=float(out["cert"].min_epsilon.max()), text="\n".join(lines),
+               metrics=metrics)
+    return out
+
+
+def polarity_study(printed: dict) -> dict:
+    """Theorem 2 designs compared with the printed gains under both vertex polarities of
+    ``1/v_x`` (chosen: :data:`papers.ifqir2017.inv_vx_upper_first`), each with the
+    repository's ``epsilon`` (:data:`papers.ifqir2017.epsilon_shift`) and with the printed
+    gains' own smallest (20) shift under that polarity (``printed`` =
+    :func:`printed_solution_study` output, rounded up to the next 1/s), and the slides'
+    single-gamma objective (one gamma shared by all modes) beside the per-mode sum, all three
+    modes compared. Returns ``designs`` ``{(polarity, epsilon): design}``, ``single_gamma``
+    (design, chosen polarity, repository epsilon), ``rows`` (one per design: polarity,
+    epsilon, mean / max |log10 L/L_printed|, sign agreement, gamma_i), ``text``, ``metrics``."""
+    designs, rows = {}, []
+    pols = (IF.inv_vx_upper_first, not IF.inv_vx_upper_first)
+    for pol, cert in zip(pols, (printed["cert"], printed["cert_other"])):
+        for eps in (IF.epsilon_shift, float(np.ceil(cert.min_epsilon.max()))):
+            d = IF.design(inv_vx_upper_first=pol, epsilon_shift=eps)
+            designs[(pol, eps)] = d
+            rows.append(_design_row(d, pol, eps, "sum of gamma_i"))
+    sg = IF.design(per_mode_gamma=False)
+    rows.append(_design_row(sg, IF.inv_vx_upper_first, IF.epsilon_shift, "one shared gamma"))
+    lr = [r["mean |log10 L/L_pr|"] for r in rows]
+    metrics = {"epsilon_printed": ([r["epsilon [1/s]"] for r in rows[1:4:2]], "1/s",
+                                   "smallest (20) shift of the printed gains: chosen, other "
+                                   "polarity"),
+               "log_ratio_chosen": (lr[0], "", "chosen polarity, epsilon_shift"),
+               "log_ratio_chosen_eps_printed": (lr[1], "", "chosen polarity, epsilon_printed"),
+               "log_ratio_other": (lr[2], "", "other polarity, epsilon_shift"),
+               "log_ratio_other_eps_printed": (lr[3], "", "other polarity, epsilon_printed"),
+               "log_ratio_single_gamma": (lr[4], "", "one shared gamma, chosen polarity"),
+               "gamma_single_objective": (sg.gamma, "", "one gamma shared by the 3 modes"),
+               "gamma_per_mode_objective_max": (rows[0]["gamma_3"], "", "")}
+    base = designs[(pols[0], IF.epsilon_shift)]
+    text = (f"one shared gamma (slides' objective): gamma = {sg.gamma:.4f}; sum of gamma_i: "
+            f"gamma_i = {np.round(base.gammas, 4)}")
+    return {"designs": designs, "single_gamma": sg, "rows": rows, "text": text,
+            "metrics": metrics}
+
+
+def _design_row(d: iv.IntervalDesign, pol: bool, eps: float, objective: str) -> dict:
+    lr = log_ratio(d.L, IF.L_printed)
+    return {"1/v_x upper at vertices 1-2": pol, "epsilon [1/s]": eps, "objective": objective,
+            "mean |log10 L/L_pr|": float(lr.mean()), "max |log10 L/L_pr|": float(lr.max()),
+            "signs as printed": float(np.mean(np.sign(d.L[..., 0]) == np.sign(IF.L_printed))),
+            "gamma_1": float(d.gammas[0]), "gamma_2": float(d.gammas[1]),
+            "gamma_3": float(d.gammas[2])}
 
 
 # ------------------------------------------------------------------ section 3 --------------
@@ -168,9 +297,71 @@ def lpv_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.IntervalDesig
     metrics["euler_substeps"] = (res.substeps, "", "")
     text = (f"max |dv_x/dt| of the run: {acc} m/s^2 (phi assumes {IF.accel_max})"
             f"\nswitched: {m}\nsingle:   {m1}")
-    return {"t": t, "vx": vx, "delta": d, "xi": xi, "X": X, "res": res, "res1": res1, "m": m,
+    return {"t": t, "dt": dt, "vx": vx, "delta": d, "xi": xi, "X": X, "res": res, "res1": res1,
+            "m": m,
             "m1": m1, "enclosure": min(m["enclosure_vy"], m["enclosure_r"]), "max_accel": acc,
             "bands": des.model.bands, "text": text, "metrics": metrics}
+
+
+def convergence_starts(t, vx, bands: iv.SpeedBands, horizon: float = CONV_HORIZON) -> list:
+    """Start samples for the convergence test: per mode, the first sample whose speed is
+    closest to the band's mid speed [m/s] among those followed by ``horizon`` s of record
+    (one int per mode; ``-1`` when the run never reaches the band)."""
+    e = np.asarray(bands.edges, dtype=float)
+    n_h = int(round(horizon / (t[1] - t[0])))
+    v = np.asarray(vx[: max(len(vx) - n_h, 0)])
+    sig = bands.mode(np.clip(v, e[0], e[-1]))
+    mids = (e[:-1] + e[1:]) / 2
+    dist = [np.where(sig == i, np.abs(v - mids[i]), np.inf) for i in range(len(mids))]
+    return [int(np.argmin(dd)) if np.isfinite(dd).any() else -1 for dd in dist]
+
+
+def convergence_study(lpv: dict, des: iv.IntervalDesign, des1: iv.IntervalDesign,
+                      box0=BOX0, frac: float = SETTLE_FRAC, horizon: float = CONV_HORIZON
+                      ) -> dict:
+    """Convergence time of the widths from the initial box ("the convergence time is short",
+    conclusion of the slides), switched (``des``) vs single-mode (``des1``), on the LPV run
+    of :func:`lpv_experiment` (``lpv``). The observers are started in each mode
+    (:func:`convergence_starts`) from the box ``x(t0) + box0`` and, on the same inputs, from
+    the point box ``[x(t0), x(t0)]``; the convergence time of a width is
+    :func:`interval.settling_time` of the first run against the second (``frac`` of the
+    initial difference) over ``horizon`` s. Returns ``starts`` (sample per mode), ``times``
+    ``{label: (K, 2) array}`` [s] (rows: mode, columns: v_y, r; NaN when the mode is not
+    reached), ``text``, ``metrics``."""
+    t, vx, d, X, dt = lpv["t"], lpv["vx"], lpv["delta"], lpv["X"], lpv["dt"]
+    starts = convergence_starts(t, vx, des.model.bands, horizon)
+    n_h = int(round(horizon / dt))
+    times, curves = {}, {}
+    for lab, de in (("switched", des), ("single mode", des1)):
+        out = [_settle(de, t, vx, d, X, dt, k, n_h, box0, frac) for k in starts]
+        times[lab] = np.array([o[0] for o in out])
+        curves[lab] = [o[1] for o in out]
+    ts, t1 = times["switched"], times["single mode"]
+    metrics = {"conv_time": (ts, "s", f"per mode [v_y, r]; {100 * frac:g} % of the initial-"
+                                      "box effect"),
+               "conv_time_max": (float(np.nanmax(ts)), "s", "switched, over modes and states"),
+               "conv_time_single": (t1, "s", "same starts"),
+               "conv_time_single_max": (float(np.nanmax(t1)), "s", ""),
+               "conv_start_speed": ([float(vx[k]) if k >= 0 else float("nan") for k in starts],
+                                    "m/s", "")}
+    text = "\n".join(f"{lab:12s}: width settling times [s] per mode (rows) for [v_y, r]:\n"
+                     f"{np.round(tt, 4)}" for lab, tt in times.items())
+    return {"starts": starts, "times": times, "curves": curves, "frac": frac,
+            "speeds": metrics["conv_start_speed"][0], "text": text, "metrics": metrics}
+
+
+def _settle(de, t, vx, d, X, dt, k, n_h, box0, frac):
+    """Settling times [v_y, r] of one restart at sample ``k`` and the curves ``(t - t0,
+    relative initial-box effect (n, 2))`` (``None`` if the mode is not reached)."""
+    if k < 0:
+        return [float("nan"), float("nan")], None
+    sl = slice(k, k + n_h)
+    x0 = X[k]
+    run = lambda lo, hi: iv.run_interval_observer(de, dt, vx[sl], d[sl], d[sl], X[sl, 1], lo, hi)
+    res, ref = run(x0 + box0[0], x0 + box0[1]), run(x0, x0)
+    dev = np.abs(res.width - ref.width)
+    return ([iv.settling_time(t[sl], res.width[:, c], ref.width[:, c], frac) for c in range(2)],
+            (t[sl] - t[k], dev / dev[0]))
 
 
 # ------------------------------------------------------------------ section 4 --------------
@@ -289,10 +480,41 @@ def summary(lpv: dict, nl: dict, revs: dict) -> str:
 
 
 # ------------------------------------------------------------------ figures ----------------
-def fig_gains(gc: dict):
+def fig_gains(gc: dict, po: dict | None = None):
     """Theorem 2 solution: designed ``|L|`` and ``P_22/P_11`` per mode.vertex next to the
-    printed ones (:func:`gain_comparison` output); 3 axes."""
-    return iv.plot_gains(gc["des"], gc["L_printed"], gc["P_printed"])
+    printed ones (:func:`gain_comparison` output); with ``po`` (:func:`polarity_study`) also
+    the design with the other ``1/v_x`` polarity; 3 axes."""
+    others = None
+    if po is not None:
+        others = {"other $1/v_x$ polarity": po["designs"][(not IF.inv_vx_upper_first,
+                                                         IF.epsilon_shift)]}
+    return iv.plot_gains(gc["des"], gc["L_printed"], gc["P_printed"], others)
+
+
+def fig_convergence(cv: dict):
+    """Effect of the initial box on the widths after a restart in each mode, relative to its
+    initial value (log scale), switched vs single mode, with the settling level
+    (:func:`convergence_study` output); 2 axes (v_y, r)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10.0, 3.8), sharey=True)
+    styles = {"switched": "-", "single mode": "--"}
+    for lab, curves in cv["curves"].items():
+        for i, cur in enumerate(curves):
+            if cur is None:
+                continue
+            for c in range(2):
+                ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), styles[lab],
+                               color=iv.PALETTE[i % len(iv.PALETTE)],
+                               label=f"{lab}, mode {i + 1} ($v_x$ = {cv['speeds'][i]:.1f} m/s)")
+    for c, nm in enumerate(("$v_y$", "$r$")):
+        ax[c].axhline(cv["frac"], color="k", lw=0.8, ls=":")
+        ax[c].set_ylim(1e-5, 2.0)
+        ax[c].set_xlabel("$t - t_0$ [s]")
+        ax[c].set_title(f"width of {nm}: effect of the initial box")
+    ax[0].set_ylabel("$|w - w_{point}| / |w(t_0) - w_{point}(t_0)|$ [-]")
+    ax[1].legend(fontsize=7, loc="upper right")
+    return fig
 
 
 def fig_inputs_emulated(lpv: dict):
@@ -312,11 +534,12 @@ def fig_intervals_lpv(lpv: dict):
 
 def fig_intervals_nonlinear(nl: dict):
     """Switched and single-mode intervals on the measured signals, nonlinear truth
-    (:func:`nonlinear_experiment` output); 2 axes."""
+    (:func:`nonlinear_experiment` output), each state with a panel of the interval relative
+    to the truth; 4 axes."""
     return iv.plot_intervals(nl["t"], {"switched": nl["res"], "single mode": nl["res1"]},
                              nl["truth"][:, 0], nl["truth"][:, 1],
                              "Measured signals, nonlinear truth (Pacejka + relaxation)",
-                             truth_label="nonlinear truth")
+                             truth_label="nonlinear truth", error_panel=True)
 
 
 def fig_widths(nl: dict):
