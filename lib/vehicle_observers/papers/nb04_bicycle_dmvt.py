@@ -510,7 +510,7 @@ def paper_claims(m: dict, a: float, R: float, var: dict) -> list[dict]:
           "smallest gap to [8.9, 19.95] over the variants tried [1/s^2]",
           Rule("xi2_variant_min_gap", reproduced="value <= 0.05",
                paper="8.9 <= xi2 <= 19.95 from (33)"),
-          f"tried along the run from x(0) = 0: {'; '.join(var['names2'])}; closest range "
+          f"tried along the run from x(0) = 0: {'; '.join(var['names2'])}; nearest range "
           f"{_closest(m, var, 2)}"),
         c("(31)/(34) entry (1,2)", "", "df1/dx2 = v [m/s]",
           Rule("A12_derived", reproduced="value == A12_printed", paper="30"),
