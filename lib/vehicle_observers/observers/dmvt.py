@@ -671,13 +671,17 @@ def plot_poles(ax, designs: dict, region=None, colors=("C3", "C0", "C2", "C1"),
 
 
 def plot_sweep(ax, sweep: dict, chosen=None):
-    """Feasibility map of the region sweep (feasible cells annotated with max|Im|)."""
+    """Feasibility map of the region sweep: feasible cells light blue and annotated with
+    max |Im lambda| [1/s], infeasible cells light orange."""
     from matplotlib.patches import Rectangle
 
     F = sweep["feasible"]
     a, R = sweep["a"], sweep["R"]
-    ax.imshow(F.T.astype(float), origin="lower", cmap="RdYlGn", vmin=-0.3, vmax=1.3,
-              aspect="auto", extent=(-0.5, len(a) - 0.5, -0.5, len(R) - 0.5))
+    from matplotlib.colors import ListedColormap
+
+    # colour-blind safe (tableau-colorblind10): light orange infeasible, light blue feasible
+    ax.imshow(F.T.astype(float), origin="lower", cmap=ListedColormap(["#FFBC79", "#A2C8EC"]),
+              vmin=0, vmax=1, aspect="auto", extent=(-0.5, len(a) - 0.5, -0.5, len(R) - 0.5))
     for ia in range(len(a)):
         for iR in range(len(R)):
             txt = f"{sweep['max_imag'][ia, iR]:.1f}" if F[ia, iR] else "infeas."
@@ -763,14 +767,14 @@ def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed
     td, xd = decimate(t, xi, max_points=1500)
     pd = None if xi_printed is None else decimate(t, xi_printed, max_points=1500)[1]
     for l, ax in enumerate(np.ravel(axs)):
-        ax.plot(td, xd[:, l], label=f"{jts.names[l]} exact")
+        ax.plot(td, xd[:, l], label=rf"$\xi_{l + 1}$ exact")
         if pd is not None and np.all(np.isfinite(pd[:, l])):
-            ax.plot(td, pd[:, l], "C2", label="printed formula, literal")
+            ax.plot(td, pd[:, l], "C2", label="printed (33), literal")
         for k, v in enumerate((jts.lo[l], jts.hi[l])):
             ax.axhline(v, color="C0", ls=":", label="derived bounds" if k else None)
         for k, v in enumerate(printed_bounds[l]):
             ax.axhline(v, color="C3", ls="--", label="printed bounds" if k else None)
         ax.set_ylabel(rf"$\xi_{l + 1}$ [1/s$^2$]")
-        ax.legend(loc="upper right", ncol=2)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     np.ravel(axs)[-1].set_xlabel("t [s]")
     return axs

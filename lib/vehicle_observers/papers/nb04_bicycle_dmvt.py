@@ -644,7 +644,7 @@ def fig_tracking(mod: dict, k1: float = 10.0, k2: float = 10.0):
 def fig_jacobian_bounds(jac: dict):
     """xi1, xi2 [1/s^2] along the run with the derived and printed bounds and the printed
     (33) evaluated literally (the garbled (32) is not drawn), 2 axes."""
-    fig, axs = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    fig, axs = plt.subplots(2, 1, figsize=(11, 5), sharex=True)
     t, pr = jac["t"], jac["printed"]
     pr_plot = np.column_stack([np.full(len(t), np.nan), pr[:, 1]])
     dmvt.plot_jacobian_bounds(axs, t, jac["J"][:, 3, 1:3], jac["jts"],
@@ -693,7 +693,8 @@ def fig_errors(obs: dict, t_max: float = 3.0):
     fig, axs = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
     for key in ("noreg", "reg"):
         Xs, Xh, _ = obs["runs"][key]
-        dmvt.plot_estimates(axs, obs["t"], Xs - Xh, Xs - Xh, label=f"error, {key}",
+        lab = "no region" if key == "noreg" else "with region"
+        dmvt.plot_estimates(axs, obs["t"], Xs - Xh, Xs - Xh, label=f"error, {lab}",
                             color=COLORS[key], truth=False)
     for ax, lab in zip(axs.ravel(), dmvt.STATE_LABELS, strict=True):
         ax.set_xlim(0, t_max)
@@ -755,7 +756,7 @@ def fig_region_sweep(sws: dict, a: float, R: float):
     against a [1/s], with the chosen (a, R); 2 axes."""
     fig, axs = plt.subplots(1, 2, figsize=(11, 4.5))
     dmvt.plot_sweep(axs[0], sws["sweep"], chosen=(a, R))
-    axs[0].set_title(r"feasible (green) / infeasible; cell text: max $|\mathrm{Im}\,\lambda|$ [1/s]")
+    axs[0].set_title(r"feasible (blue) / infeasible (orange); cell text: max $|\mathrm{Im}\,\lambda|$ [1/s]")
     axs[1].plot(sws["a_bis"], sws["Rmin"], "o-")
     axs[1].fill_between(sws["a_bis"], sws["Rmin"], max(sws["sweep"]["R"]), alpha=0.15,
                         label="feasible")
