@@ -216,6 +216,26 @@ def test_observer_plant_part_equals_shared_simulator_and_error_decays():
     np.testing.assert_allclose(Xh2, Xs2, atol=1e-12)
 
 
+def test_readable_observer_step_equals_compiled_and_model_part_is_f():
+    """dmvt.observer_step (numpy, shown in notebook 04) = compiled observer_rhs, with 8
+    distinct gains and with one gain, also for estimates outside the sector box; with
+    y = C xhat the derivative is f(xhat, u) of (25) exactly (multi-affine weights)."""
+    jts, X, U = _bike_jts()
+    ts = _bike_ts(X, U)
+    rng = np.random.default_rng(7)
+    for L in (rng.normal(size=(8, 4, 2)), rng.normal(size=(1, 4, 2))):
+        for scale in (0.1, 2.0):                     # inside / outside the sector box
+            xh, u, y = rng.normal(scale=scale, size=4), rng.normal(), rng.normal(size=2)
+            out = np.empty(4)
+            dmvt.observer_rhs(xh, u, y, BP.as_array(), ts.A, ts.B, ts.zmin, ts.zmax, L,
+                              ic.C, out)
+            np.testing.assert_allclose(dmvt.observer_step(xh, u, y, ts, L, ic.C), out,
+                                       rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(dmvt.observer_step(xh, u, ic.C @ xh, ts, L, ic.C),
+                                       b.rhs(xh[None], np.array([u]), BP)[0], rtol=1e-12,
+                                       atol=1e-10)
+
+
 def test_observer_input_errors():
     jts, X, U = _bike_jts()
     ts = _bike_ts(X, U)

@@ -8,6 +8,7 @@ from matplotlib.figure import Figure
 from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.core.metrics import overshoot
 from vehicle_observers.models import bicycle as b
+from vehicle_observers.observers import dmvt
 from vehicle_observers.papers import ichalal2011 as ic
 from vehicle_observers.papers import nb04_bicycle_dmvt as ds
 from vehicle_observers.results.reporting import Report
@@ -86,13 +87,11 @@ def test_observer_runs_against_direct_error_computation(setup):
         np.testing.assert_allclose(E[0], -np.array(ds.XHAT0))      # x(0) = 0
         np.testing.assert_array_equal(obs["metrics"][f"max_abs_err_{key}"][0], np.abs(E).max(0))
         assert obs["metrics"][f"overshoot_{key}"][0][1] == overshoot(E[:, 1])
-        share = obs["metrics"][f"dmvt_segment_inside_{key}"][0]
-        assert 0.5 < share <= 1.0
-        assert obs["metrics"][f"dmvt_segment_xi_range_{key}"][0].shape == (2, 2)
     # the observers converge: error at 1 s far below the initial one
     X, Xh, _ = obs["runs"]["reg"]
     assert np.abs(X[-1] - Xh[-1]).max() < 0.1 * np.abs(ds.XHAT0).max()
-    assert "segment-in-bounds" in ds.observer_summary(obs)
+    rows = ds.observer_table(obs).rows
+    np.testing.assert_array_equal(rows[1]["overshoot x1..x4"], obs["errors"]["reg"]["overshoot"])
 
 
 def test_initial_error_study_draws_and_aggregates(setup):
@@ -131,7 +130,10 @@ def test_filter_baseline_short_run(setup):
         assert np.all(d <= m["ekf_ukf_max_abs_diff"][0])
     # the noise (drawn from the seed) reaches the estimates: clean and noisy runs differ
     assert not np.array_equal(cmp["clean"]["ekf"].xhat, r.xhat)
-    assert "cost ratio EKF/DMVT" in ds.baseline_summary(base)
+    # wall clock only in the timings, never among the metrics
+    assert not any("us_per_step" in k or "cost" in k for k in m)
+    assert base["timings"]["cost_ratio_ekf_dmvt"][0] > 0
+    assert len(ds.baseline_table(base).rows) == 8
     with pytest.raises(ValueError, match=r"horizon T = 1.5 s is longer than the observer run"):
         ds.filter_baseline(BP, mod["ts"], designs, C, obs, T=1.5, t_late=0.1)
 
@@ -180,56 +182,146 @@ def test_printed_vertices_check_against_eigenvalues():
         "min_damping_printed_noreg"][0]
 
 
-def _claim_inputs(**over):
-    m = {"ts_rhs_max_rel_diff": 1e-16, "tracking_rmse_x3": 0.01,
-         "xi1_bounds_derived": [70.0, 167.0], "xi2_bounds_derived": [16.35, 33.4],
-         "xi2_printed_formula_bounds": [7.15, 17.28], "A12_derived": 10.0,
-         "lmi_min_rel_margin_noreg": 1e-4, "max_imag_noreg": 30.0, "min_damping_noreg": 0.3,
-         "max_imag_reg": 7.0, "min_damping_reg": 0.49,
-         "mc_median_overshoot_noreg": [0.5, 0.5, 0.2, 2.5], "Rmin": [4.69],
-         "mc_median_overshoot_reg": [0.3, 0.1, 0.4, 0.9], "max_modulus_noreg": 47.0,
-         "mc_median_settling_noreg": [1.1, 1.0, 0.36, 0.51],
-         "mc_median_settling_reg": [0.88, 0.82, 0.96, 0.93],
-         "cmp_noisy_rmse_late_ekf": [0, 0, 0, 0.006], "cmp_noisy_rmse_late_reg": [0, 0, 0, 0.012],
-         "ekf_rmse_below_dmvt_share": 0.94, "cost_ratio_ekf_dmvt": 60.0}
-    m.update(over)
-    return {c["item"]: c for c in ds.paper_claims(m, A_REG, R_REG)}
+BASE_METRICS = {
+    "ts_rhs_max_rel_diff": 1e-16, "tracking_rmse_x3": 0.01,
+    "xi1_bounds_derived": [70.0, 167.0], "xi1_bounds_printed": [84.92, 167.83],
+    "xi2_bounds_derived": [16.35, 33.4], "xi2_bounds_printed": [8.9, 19.95],
+    "xi2_variant_bounds": [[16.35, 33.4], [7.15, 17.28]], "xi2_variant_min_gap": 2.67,
+    "A12_derived": 10.0, "A12_printed": 30.0, "lmi_min_rel_margin_noreg": 1e-4,
+    "lmi_min_margin_noreg": 1.1, "lmi_min_rel_margin_printed_noreg": 1e-5,
+    "max_imag_noreg": 30.0, "min_damping_noreg": 0.3, "max_imag_reg": 7.0,
+    "min_damping_reg": 0.49, "max_modulus_noreg": 47.0, "Rmin": [4.69],
+    "mc_median_overshoot_noreg": [0.5, 0.5, 0.2, 2.5],
+    "mc_median_overshoot_reg": [0.3, 0.1, 0.4, 0.9],
+    "mc_median_settling_noreg": [1.1, 1.0, 0.36, 0.51],
+    "mc_median_settling_reg": [0.88, 0.82, 0.96, 0.93],
+    "dmvt_inside_traj_nominal_noreg": 0.979, "dmvt_inside_traj_nominal_reg": 0.997,
+    "dmvt_inside_traj_noreg": 0.974, "dmvt_inside_traj_reg": 0.968,
+    "xi_segment_range": [[71.9, 169.6], [-0.34, 33.4]],
+    "xi1_bounds_wide": [70.0, 171.6], "xi2_bounds_wide": [-1.02, 34.07],
+    "dmvt_inside_wide_noreg": 1.0, "dmvt_inside_wide_reg": 1.0,
+    "lmi_min_margin_wide_noreg": 0.75, "lmi_min_margin_wide_reg": 0.22,
+    "cmp_noisy_rmse_late_ekf": [0, 0, 0, 0.006], "cmp_noisy_rmse_late_reg": [0, 0, 0, 0.012],
+    "ekf_rmse_below_dmvt_share": 0.94}
+VAR = {"names1": ["exact", "cos", "(32)"], "names2": ["exact", "(33) literal"]}
 
 
-def test_paper_claims_verdict_rules_and_recording(tmp_path):
-    c = _claim_inputs()
-    assert len(c) == 10 and c["Fig. 2"]["verdict"] == "reproduced"
-    assert c["Fig. 3"]["verdict"] == "reproduced" and c["Fig. 4"]["verdict"] == "reproduced"
-    assert c["Fig. 5 / (35)-(36)"]["verdict"] == "partly"
-    assert c["EKF/UKF baseline vs DMVT"]["value"] == pytest.approx(0.5)
-    assert "94 %" in c["EKF/UKF baseline vs DMVT"]["note"] and "60x" in c[
-        "EKF/UKF baseline vs DMVT"]["note"]
-    fig5 = c["Fig. 5 / (35)-(36)"]["note"]
+def _claims(tmp_path, **over):
+    """Record the metrics, then the claims: ``{item: Claim}`` with computed verdicts."""
+    rep = Report("nb", tmp_path)
+    for k, v in {**BASE_METRICS, **over}.items():
+        rep.metric(k, v)
+    ds.record_claims(rep, ds.paper_claims(rep.values(), A_REG, R_REG, VAR))
+    return {c.item: c for c in rep.claims}, rep
+
+
+def test_paper_claims_verdicts_are_computed_by_rules(tmp_path):
+    c, rep = _claims(tmp_path)
+    assert len(c) == 13 and all(x.rule != "(hand-written verdict)" for x in c.values())
+    v = {k: x.verdict for k, x in c.items()}
+    assert v["Fig. 2"] == v["Fig. 3"] == v["Fig. 4"] == v["LMIs (23)"] == "reproduced"
+    assert v["Fig. 5 / (35)-(36)"] == "partly"          # x3, x4 settle more slowly
+    assert v["(32)-(34) xi1 bounds"] == "partly"         # upper end within 1 %, lower not
+    assert v["(33)-(34) xi2 bounds"] == "differs"
+    assert v["(33)-(34) printed xi2 bounds, variants"] == "differs"
+    assert v["(31)/(34) entry (1,2)"] == "differs"
+    assert v["(11)-(14) DMVT on [xhat, x], trajectory bounds"] == "partly"
+    assert v["(11)-(14) DMVT on [xhat, x], widened bounds"] == "reproduced"
+    assert v["(35)-(36) region choice"] == v["EKF/UKF baseline (not in the paper)"] \
+        == "not comparable"
+    base = c["EKF/UKF baseline (not in the paper)"]
+    assert base.value == pytest.approx(0.5) and "94 %" in base.note and "EKF better" in base.note
+    fig5 = c["Fig. 5 / (35)-(36)"].note
     assert "median overshoot reduced for x1, x2, x4; median overshoot larger for x3" in fig5
     assert "median 2 % settling larger for x3, x4" in fig5 and "up to 47 1/s" in fig5
-    assert "EKF better" in c["EKF/UKF baseline vs DMVT"]["note"]
-    assert "min 70.00 lower than printed 84.92" in c["(32)-(34) xi1 bounds"]["note"]
-    # the notes follow the numbers: a losing EKF, a region that helps everywhere
-    c = _claim_inputs(ekf_rmse_below_dmvt_share=0.25, cost_ratio_ekf_dmvt=0.5,
-                      cmp_noisy_rmse_late_ekf=[0, 0, 0, 0.02],
-                      mc_median_overshoot_reg=[0.1] * 4, mc_median_settling_reg=[0.1] * 4,
-                      xi1_bounds_derived=[90.0, 167.0])
-    note = c["EKF/UKF baseline vs DMVT"]["note"]
-    assert "DMVT better" in note and "25 %" in note and "0.5x" in note and "above 1" in note
-    fig5 = c["Fig. 5 / (35)-(36)"]["note"]
-    assert "larger" not in fig5 and "fast poles" not in fig5
-    assert "settling reduced for x1, x2, x3, x4" in fig5
-    assert "not lower than printed" in c["(32)-(34) xi1 bounds"]["note"]
-    c = _claim_inputs(tracking_rmse_x3=0.03, ts_rhs_max_rel_diff=1e-3, min_damping_noreg=0.5,
-                      max_imag_reg=40.0)
-    assert c["Fig. 3"]["verdict"] == "partly" and c["Fig. 2"]["verdict"] == "differs"
-    assert c["Fig. 4"]["verdict"] == "partly" and c["Fig. 5 / (35)-(36)"]["verdict"] == "differs"
+    assert "min 70.00 lower than printed 84.92" in c["(32)-(34) xi1 bounds"].note
+    assert "[7.15, 17.28] ((33) literal)" in c["(33)-(34) printed xi2 bounds, variants"].note
+    assert "97.9 %" in c["(11)-(14) DMVT on [xhat, x], trajectory bounds"].note
+    assert "xi2 in [-1.02, 34.07]" in c["(11)-(14) DMVT on [xhat, x], widened bounds"].note
+    assert [x.item for x in rep.claims] == list(c)
+
+
+def test_paper_claims_verdicts_follow_the_numbers(tmp_path):
+    c, _ = _claims(tmp_path, tracking_rmse_x3=0.03, ts_rhs_max_rel_diff=1e-3,
+                   min_damping_noreg=0.5, max_imag_reg=40.0, xi2_variant_min_gap=0.01,
+                   dmvt_inside_traj_reg=1.0, dmvt_inside_traj_noreg=1.0,
+                   dmvt_inside_wide_reg=0.999, xi1_bounds_derived=[85.0, 167.5],
+                   ekf_rmse_below_dmvt_share=0.25, cmp_noisy_rmse_late_ekf=[0, 0, 0, 0.02])
+    v = {k: x.verdict for k, x in c.items()}
+    assert v["Fig. 3"] == "partly" and v["Fig. 2"] == "differs"
+    assert v["Fig. 4"] == "partly" and v["Fig. 5 / (35)-(36)"] == "differs"
+    assert v["(33)-(34) printed xi2 bounds, variants"] == "reproduced"
+    assert v["(11)-(14) DMVT on [xhat, x], trajectory bounds"] == "reproduced"
+    assert v["(11)-(14) DMVT on [xhat, x], widened bounds"] == "differs"
+    assert v["(32)-(34) xi1 bounds"] == "reproduced"
+    note = c["EKF/UKF baseline (not in the paper)"].note
+    assert "DMVT better" in note and "25 %" in note and "above 1" in note
+    # a region that helps on every state and every median: reproduced
+    c, _ = _claims(tmp_path, mc_median_overshoot_reg=[0.1] * 4, mc_median_settling_reg=[0.1] * 4)
+    assert c["Fig. 5 / (35)-(36)"].verdict == "reproduced"
+    assert "larger" not in c["Fig. 5 / (35)-(36)"].note
+
+
+def test_record_and_timings(tmp_path):
     rep = Report("nb", tmp_path)
     ds.record(rep, {"a": (1.5, "s", "note a"), "b": (np.arange(2), "")})
-    ds.record_claims(rep, c.values())
-    assert rep.metrics == {"a": {"value": 1.5, "unit": "s", "note": "note a"},
-                           "b": {"value": [0, 1], "unit": "", "note": ""}}
-    assert [x.item for x in rep.claims] == list(c)
+    ds.record_timings(rep, {"us": (3.0, "us")})
+    assert rep.metrics == {"a": {"value": 1.5, "unit": "s", "note": "note a", "digits": 4},
+                           "b": {"value": [0, 1], "unit": "", "note": "", "digits": 4}}
+    assert rep.timings == {"us": {"value": 3.0, "unit": "us", "note": ""}}
+
+
+def test_bounds_variants_against_direct_computation(setup):
+    mod, *_ = setup
+    t, X, U = mod["t"], mod["X"], mod["U"]
+    var = ds.bounds_variants(BP, t, X, U, t_after=1.0)
+    m = var["metrics"]
+    assert var["names2"][:2] == ["exact", "(33) literal"] and len(var["names2"]) == 6
+    pr = dmvt.printed_jacobian_entries(X, U)[:, 1]
+    np.testing.assert_allclose(m["xi2_variant_bounds"][0][1], [pr.min(), pr.max()])
+    late = pr[t >= 1.0]
+    np.testing.assert_allclose(m["xi2_variant_bounds"][0][4], [late.min(), late.max()])
+    cos = BP.v**2 / BP.p * np.cos(X[:, 2])
+    np.testing.assert_allclose(m["xi1_variant_bounds"][0][1], [cos.min(), cos.max()])
+    gaps = np.abs(m["xi2_variant_bounds"][0] - np.array(ic.xi2_bounds_printed)).max(axis=1)
+    assert m["xi2_variant_min_gap"][0] == gaps.min()
+    rows = ds.variants_table(var, {k: v[0] for k, v in m.items()}).rows
+    assert len(rows) == 9 and rows[0]["printed"] == list(ic.xi1_bounds_printed)
+
+
+def test_segment_coverage_against_direct_computation(setup):
+    mod, jac, designs, obs = setup
+    jts, t = jac["jts"], obs["t"]
+    E0 = np.array([-np.asarray(ds.XHAT0), [0.0, 0.0, 0.0, 0.0]])
+    cov = ds.segment_coverage(BP, mod["ts"], {"reg": designs["reg"]}, C, jts, t, E0,
+                              n_points=3)["reg"]
+    X, Xh, U = obs["runs"]["reg"]
+    mid = b.jacobian(0.5 * (X + Xh), U, BP)[:, 3, 1:3]
+    ends = [b.jacobian(Z, U, BP)[:, 3, 1:3] for Z in (X, Xh)]
+    vals = np.stack([ends[1], mid, ends[0]], axis=1)
+    inside = np.all((vals >= jts.lo) & (vals <= jts.hi), axis=(1, 2)).mean()
+    assert cov["inside"][0] == inside < 1.0          # the transient leaves the bounds
+    assert cov["inside"][1] == 1.0                   # xhat = x: segment = trajectory point
+    assert np.all(cov["lo"] <= vals.min(axis=(0, 1))) and np.all(cov["hi"] >= vals.max((0, 1)))
+    assert cov["env_lo"].shape == (len(t), 2)
+
+
+def test_transient_certificate_closes_the_gap(setup):
+    """Widened bounds contain every segment value of the old runs, the re-solved LMIs are
+    certified, and the new runs stay inside the widened bounds at every sample."""
+    mod, jac, designs, obs = setup
+    E0 = np.array([-np.asarray(ds.XHAT0), [0.1, 0.05, -0.2, 0.4]])
+    cert = ds.transient_certificate(BP, mod["ts"], designs, C, jac["jts"], obs["t"], E0,
+                                    A_REG, R_REG, r=1, margin=0.02, n_points=5)
+    m, wide = cert["metrics"], cert["jts_wide"]
+    assert m["dmvt_inside_traj_noreg"][0] < 1.0
+    for key, cov in cert["before"].items():
+        assert np.all(wide.lo < cov["lo"]) and np.all(wide.hi > cov["hi"])
+        assert m[f"dmvt_inside_wide_{key}"][0] == 1.0
+        assert m[f"lmi_min_margin_wide_{key}"][0] > 0
+    d = cert["designs_wide"]["reg"]
+    assert d.poles.max_real < -A_REG and d.poles.max_modulus < R_REG
+    assert m["xi2_bounds_wide"][0][0] < jac["jts"].lo[1]    # the transient lowers xi2
 
 
 def test_figures_return_figures_with_expected_axes(setup):
@@ -246,3 +338,40 @@ def test_figures_return_figures_with_expected_axes(setup):
                    (ds.fig_region_sweep(sws, 0.5, 3.0), 2)):
         assert isinstance(fig, Figure) and len(fig.axes) == n, fig._suptitle
         plt.close(fig)
+
+
+def test_pole_and_baseline_figures_layout(setup):
+    """Poles: equal aspect on both axes (the disk (36) drawn as a circle), legend below the
+    axes, not over the eigenvalues; baseline errors: log scale with units, legend outside."""
+    import matplotlib.pyplot as plt
+
+    mod, jac, designs, obs = setup
+    fig = ds.fig_poles(designs, A_REG, R_REG)
+    fig.canvas.draw()
+    for ax in fig.axes:
+        assert ax.get_aspect() == 1.0
+    ax = fig.axes[0]
+    leg = ax.get_legend().get_window_extent()
+    assert leg.y1 < ax.get_window_extent().y0
+    plt.close(fig)
+    base = ds.filter_baseline(BP, mod["ts"], designs, C, obs, T=0.1, t_late=0.05)
+    fig = ds.fig_ekf_ukf_errors(base, A_REG, R_REG)
+    fig.canvas.draw()
+    assert all(ax.get_yscale() == "log" for ax in fig.axes)
+    assert [fig.axes[2 * i].get_ylabel().split(" ")[-1] for i in range(4)] == [
+        "[rad]", "[1/m]", "[rad]", "[rad/s]"]
+    leg = fig.axes[1].get_legend().get_window_extent()
+    assert leg.x0 > fig.axes[1].get_window_extent().x1
+    plt.close(fig)
+
+
+def test_segment_figure(setup):
+    import matplotlib.pyplot as plt
+
+    mod, jac, designs, obs = setup
+    E0 = np.array([-np.asarray(ds.XHAT0)])
+    cert = ds.transient_certificate(BP, mod["ts"], designs, C, jac["jts"], obs["t"], E0,
+                                    A_REG, R_REG, r=1, n_points=3)
+    fig = ds.fig_segment_bounds(cert, jac["jts"], obs["t"], t_max=0.5)
+    assert len(fig.axes) == 2 and fig.axes[1].get_xlabel() == "t [s]"
+    plt.close(fig)

@@ -1,6 +1,6 @@
 """filterpy EKF / UKF baseline for the DMVT observer on the autonomous bicycle (Ichalal,
-Arioui, Mammar, MED 2011; mission item 7: every observer compared with an EKF/UKF on the
-same data).
+Arioui, Mammar, MED 2011; a baseline the paper does not have: the observer compared with
+an EKF/UKF on the same data).
 
 All estimators see the *same sampled data*: inputs ``u_k`` of the tracking law (27) computed
 on the true state (N,) [normalised steering torque], measurements ``y_k = C x_k (+ noise)``

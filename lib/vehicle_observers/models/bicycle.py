@@ -1,6 +1,6 @@
 """Autonomous bicycle with tracking law (Ichalal, Arioui, Mammar, MED 2011, Sec. III).
 
-State ``x = [beta (yaw, rad), psi_beta (rad/s... see below), alpha (roll, rad), psi_alpha
+State ``x = [beta (yaw, rad), psi_beta (1/m, see below), alpha (roll, rad), psi_alpha
 (roll rate, rad/s)]``, eq. (25):
 
     x1' = x2 v

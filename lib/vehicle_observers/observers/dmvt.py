@@ -444,6 +444,29 @@ def observer_rhs(xh, u, y, P, Av, Bv, zmin, zmax, L, C, out):
             out[i] += w * acc + wc * gain
 
 
+def observer_step(xh, u, y, ts, L, C) -> np.ndarray:
+    """Observer (6) of Ichalal 2011, readable numpy version of :func:`observer_rhs`.
+
+    ``xh`` (4,) estimate, ``u`` scalar input, ``y`` (ny,) measurement, ``ts`` the 8-rule
+    sector TS model (:func:`vehicle_observers.models.bicycle.bicycle_ts`), ``L`` (r or 1, 4,
+    ny), ``C`` (ny, 4). Returns ``dxhat/dt`` (4,)::
+
+        zhat = z(xhat)                          premises from the estimate (unmeasurable)
+        model = sum_i mu_i(zhat) (A_i xhat + B_i u)       (= f(xhat, u), exact weights)
+        gain  = sum_j mu_j(clip(zhat)) L_j               (convex blend of the gains)
+        dxhat/dt = model + gain (y - C xhat)
+    """
+    from vehicle_observers.models.ts import memberships
+
+    xh = np.asarray(xh, dtype=float)
+    z = ts.premise_fn(xh[None], np.array([[u]]))[0]
+    mu = memberships(z, ts.zmin, ts.zmax)
+    mu_clip = memberships(np.clip(z, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
+    A, B = ts.blend(mu)
+    gain = np.tensordot(mu_clip, L, axes=1) if len(L) == len(mu) else L[0]
+    return A @ xh + B[:, 0] * u + gain @ (np.asarray(y, dtype=float) - C @ xh)
+
+
 @njit(cache=True)
 def _bike_rhs(s, t, P, Av, Bv, zmin, zmax, L, C, out):
     """Plant (25)+(27) (states 0..3) and observer (6) (states 4..7, :func:`observer_rhs`
@@ -621,44 +644,52 @@ def initial_error_study(bp, t, ts, designs: dict, C, n: int, scale, seed: int = 
 # ---- figures (used by notebook 04) ----------------------------------------------------------
 
 
-def plot_poles(ax, designs: dict, region=None, colors=("C3", "C0", "C2", "C1")):
-    """Closed-loop eigenvalues of every vertex pair of each design, and the region drawn."""
+def plot_poles(ax, designs: dict, region=None, colors=("C3", "C0", "C2", "C1"),
+               legend: bool = True):
+    """Closed-loop eigenvalues [1/s] of every vertex pair of each design and the region
+    (35)-(36) drawn, equal aspect (a disk is a circle); legend below the axes."""
     for (name, des), col in zip(designs.items(), colors, strict=False):
         ev = des.poles.eigs.ravel()
         ax.plot(ev.real, ev.imag, "x" if "no" in name else "o", color=col, ms=5, mfc="none",
-                label=f"{name}: max|Im| {des.poles.max_imag:.1f}, "
-                      f"min zeta {des.poles.min_damping:.2f}")
+                label=f"{name}: max $|\\mathrm{{Im}}\\,\\lambda|$ {des.poles.max_imag:.1f} 1/s, "
+                      f"min $\\zeta$ {des.poles.min_damping:.2f}")
     for reg in _regions(region):
         if reg.L.shape == (1, 1):       # half-plane Re z < -a
             a = reg.L[0, 0] / 2
-            ax.axvline(-a, color="k", ls="--", lw=0.9, label=f"Re z = -{a:g}")
+            ax.axvline(-a, color="k", ls="--", lw=0.9, label=f"(35): Re $z = -{a:g}$")
         elif reg.L.shape == (2, 2) and reg.L[0, 0] != 0:   # disk
             R, q = -reg.L[0, 0], -reg.L[0, 1]
             th = np.linspace(0, 2 * np.pi, 300)
-            ax.plot(q + R * np.cos(th), R * np.sin(th), "k:", lw=0.9, label=f"|z| = {R:g}")
+            ax.plot(q + R * np.cos(th), R * np.sin(th), "k:", lw=0.9, label=f"(36): $|z| = {R:g}$")
     ax.axvline(0, color="0.5", lw=0.6)
-    ax.set_xlabel("Re(lambda) [1/s]")
-    ax.set_ylabel("Im(lambda) [1/s]")
-    ax.legend(loc="upper left")
+    ax.set_xlabel(r"Re $\lambda$ [1/s]")
+    ax.set_ylabel(r"Im $\lambda$ [1/s]")
+    ax.set_aspect("equal", adjustable="datalim")
+    if legend:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=1, frameon=False)
     return ax
 
 
 def plot_sweep(ax, sweep: dict, chosen=None):
-    """Feasibility map of the region sweep (feasible cells annotated with max|Im|)."""
+    """Feasibility map of the region sweep: feasible cells light blue and annotated with
+    max |Im lambda| [1/s], infeasible cells light orange."""
     from matplotlib.patches import Rectangle
 
     F = sweep["feasible"]
     a, R = sweep["a"], sweep["R"]
-    ax.imshow(F.T.astype(float), origin="lower", cmap="RdYlGn", vmin=-0.3, vmax=1.3,
-              aspect="auto", extent=(-0.5, len(a) - 0.5, -0.5, len(R) - 0.5))
+    from matplotlib.colors import ListedColormap
+
+    # colour-blind safe (tableau-colorblind10): light orange infeasible, light blue feasible
+    ax.imshow(F.T.astype(float), origin="lower", cmap=ListedColormap(["#FFBC79", "#A2C8EC"]),
+              vmin=0, vmax=1, aspect="auto", extent=(-0.5, len(a) - 0.5, -0.5, len(R) - 0.5))
     for ia in range(len(a)):
         for iR in range(len(R)):
             txt = f"{sweep['max_imag'][ia, iR]:.1f}" if F[ia, iR] else "infeas."
             ax.text(ia, iR, txt, ha="center", va="center", fontsize=7)
     ax.set_xticks(range(len(a)), [f"{x:g}" for x in a])
     ax.set_yticks(range(len(R)), [f"{x:g}" for x in R])
-    ax.set_xlabel("half-plane a (Re z < -a)")
-    ax.set_ylabel("disk radius R (|z| < R)")
+    ax.set_xlabel("half-plane $a$ [1/s] (Re $z < -a$)")
+    ax.set_ylabel("disk radius $R$ [1/s] ($|z| < R$)")
     ax.grid(False)
     if chosen is not None:
         ia = int(np.argmin(np.abs(a - chosen[0])))
@@ -667,8 +698,8 @@ def plot_sweep(ax, sweep: dict, chosen=None):
     return ax
 
 
-STATE_LABELS = ("x1 = beta [rad]", "x2 = psi_beta [1/m]", "x3 = alpha [rad]",
-                "x4 = psi_alpha [rad/s]")
+STATE_LABELS = (r"$x_1 = \beta$ [rad]", r"$x_2 = \psi_\beta$ [1/m]", r"$x_3 = \alpha$ [rad]",
+                r"$x_4 = \psi_\alpha$ [rad/s]")
 
 
 def plot_estimates(axs, t, X, Xhat, label="estimate", color="C1", truth=True):
@@ -714,12 +745,14 @@ def plot_tracking(axs, t, X, U):
     from vehicle_observers.core.arrays import decimate
 
     td, x3, x4, u = decimate(t, X[:, 2], X[:, 3], U, max_points=1500)
-    axs[0].plot(td, x3, label="x3 = alpha")
-    axs[0].plot(td, np.sin(td), "k--", label="x3d = sin t")
-    axs[1].plot(td, x4, label="x4")
-    axs[1].plot(td, np.cos(td), "k--", label="x4d = cos t")
+    axs[0].plot(td, x3, label=r"$x_3 = \alpha$")
+    axs[0].plot(td, np.sin(td), "k--", label=r"$x_{3d} = \sin t$")
+    axs[1].plot(td, x4, label=r"$x_4$")
+    axs[1].plot(td, np.cos(td), "k--", label=r"$x_{4d} = \cos t$")
     axs[2].plot(td, u, "C2")
-    axs[2].set_ylabel("u [N m, normalised]")
+    axs[0].set_ylabel("roll [rad]")
+    axs[1].set_ylabel("roll rate [rad/s]")
+    axs[2].set_ylabel("$u$ [normalised]")
     axs[2].set_xlabel("t [s]")
     for ax in axs[:2]:
         ax.legend(loc="upper right")
@@ -734,14 +767,14 @@ def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed
     td, xd = decimate(t, xi, max_points=1500)
     pd = None if xi_printed is None else decimate(t, xi_printed, max_points=1500)[1]
     for l, ax in enumerate(np.ravel(axs)):
-        ax.plot(td, xd[:, l], label=f"{jts.names[l]} exact")
+        ax.plot(td, xd[:, l], label=rf"$\xi_{l + 1}$ exact")
         if pd is not None and np.all(np.isfinite(pd[:, l])):
-            ax.plot(td, pd[:, l], "C2", label="printed formula, literal")
+            ax.plot(td, pd[:, l], "C2", label="printed (33), literal")
         for k, v in enumerate((jts.lo[l], jts.hi[l])):
             ax.axhline(v, color="C0", ls=":", label="derived bounds" if k else None)
         for k, v in enumerate(printed_bounds[l]):
             ax.axhline(v, color="C3", ls="--", label="printed bounds" if k else None)
-        ax.set_ylabel(jts.names[l])
-        ax.legend(loc="upper right", ncol=2)
+        ax.set_ylabel(rf"$\xi_{l + 1}$ [1/s$^2$]")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     np.ravel(axs)[-1].set_xlabel("t [s]")
     return axs
