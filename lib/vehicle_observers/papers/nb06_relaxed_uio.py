@@ -553,18 +553,21 @@ def fig_feasibility_map(fm: dict):
         ax[0].plot(alphas, fm["gamma_b"][:, j], "-s", label=rf"(b) $\varphi$ = {ph:.3g} 1/s")
     ax[0].set(xlabel=r"decay rate $\alpha$ [1/s]", ylabel=r"certified $L_2$ gain $\gamma$ [-]",
               title=r"best $\gamma$ (missing: infeasible)")
-    ax[0].legend(fontsize=8)
-    im = ax[1].imshow(np.nan_to_num(ratio.T, nan=1.0), origin="lower", aspect="auto",
-                      cmap="cividis")
+    ax[0].set_ylim(0, 1.15 * np.nanmax(np.r_[fm["gamma_a"], fm["gamma_b"].ravel()]))
+    ax[0].legend(fontsize=8, loc="lower right")
+    cmap = plt.get_cmap("cividis").copy()
+    cmap.set_bad("0.75")                      # grey: no certified solution
+    im = ax[1].imshow(np.ma.masked_invalid(ratio.T), origin="lower", aspect="auto", cmap=cmap,
+                      vmin=min(0.9, np.nanmin(ratio)), vmax=1.0)
     for i in range(len(alphas)):
         for j in range(len(phis)):
             lab = ("a,b" if fm["feasible_a"][i, j] else "b") if fm["feasible_b"][i, j] else "-"
             ax[1].text(i, j, f"{ratio[i, j]:.4f}\n{lab}", ha="center", va="center", fontsize=7,
-                       color="w")
+                       color="k")
     ax[1].set_xticks(range(len(alphas)), [f"{a:g}" for a in alphas])
     ax[1].set_yticks(range(len(phis)), [f"{p:.3g}" for p in phis])
     ax[1].set(xlabel=r"$\alpha$ [1/s]", ylabel=r"$\varphi$ [1/s]",
-              title=r"$\gamma_b/\gamma_a$ [-]; feasible: a,b / b only / -")
+              title=r"$\gamma_b/\gamma_a$ [-]; feasible: a,b / b only / - (grey)")
     ax[1].grid(False)
     fig.colorbar(im, ax=ax[1])
     return fig
