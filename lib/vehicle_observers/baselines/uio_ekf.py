@@ -41,9 +41,10 @@ Both rules use:
 * ``R = D_w D_w^T`` (the sensor noise variances, ``w ~ N(0, I)`` per sample);
 * fault: ``s = fdot_max``, the fault-rate bound the UIO's L2 index is normalised with
   (``model.scale_fdot``): ``q_f = fdot_max^2 dt`` (per-sample) or ``fdot_max^2 tau``;
-* states: the uncertainty acts along ``M`` with size ``d_max = max_i rho |[A_i]_1,forces|
-  scale_x[:2]`` (the ``1/m`` error applied to the force part at the model's typical state
-  magnitudes), ``Q_x = M M^T d_max^2 dt`` (per-sample) or ``M M^T d_max^2 tau``.
+* states: the uncertainty acts along ``M`` with size ``d_max = max_i |N_a,i| scale_x[:2]``
+  (the ``1/m`` or ``1/I_z`` error applied to the force part of the row ``M`` selects, at the
+  model's typical state magnitudes), ``Q_x = M M^T d_max^2 dt`` (per-sample) or
+  ``M M^T d_max^2 tau``.
 
 Units: SI throughout (m/s, rad/s, rad); arrays (N, ...) over samples.
 """
@@ -204,8 +205,9 @@ def evaluate_filter(model: UncertainLateralTS, sc: dict, h="measured", kind: str
     metrics as :func:`.observers.uio.evaluate` (``rmse_vy``, ``rmse_r``, ``rmse_f`` after the fault,
     ``fault_delay``...) plus ``run`` (the :class:`FilterRun`) and ``us_per_step``.
 
-    ``h='measured'``: the scenario's true memberships (as the UIO gets them); ``None``:
-    estimated premises. Other keywords go to :func:`run_filter`.
+    ``h='measured'``: the scenario's true memberships (comparison only: they contain the
+    true slip angle and fault); ``None`` or ``'estimated'``: premises from the filter's own
+    estimate (:func:`run_filter`). Other keywords go to :func:`run_filter`.
     """
     hh = sc["h"] if isinstance(h, str) and h == "measured" else h
     run = run_filter(model, sc["delta"], sc["y"], sc["dt"], hh, kind, **kw)

@@ -284,7 +284,8 @@ class UncertainLateralTS:
     def augmented(self):
         """Normalised augmented matrices ``(Abar (r,3,3), Bbar (r,3,1), Cbar (p,3),
         Mbar (3,nd), Gam (3,1), Dw (p,p))`` with ``X = S X_s``, ``y = R y_s``,
-        S = diag(scale_x), R = diag(scale_x[:2]) applied to C's rows when C = I, else I."""
+        S = diag(scale_x), R = :meth:`output_scale` (the scale of the state each row of C
+        reads)."""
         S = np.diag(self.scale_x)
         R = self.output_scale()
         Si, Ri = np.linalg.inv(S), np.linalg.inv(R)
@@ -985,8 +986,9 @@ def make_scenario(model: UncertainLateralTS, t_end: float, dt: float, t_fault: f
 
     Returns t (N,), delta (N,), f (N,), F (N,), X (N, 2) true ``[v_y, r]``, y (N, 2)
     measured (``C x + F_s f`` + noise ``D_w w`` with ``w ~ N(0, I)`` from ``seed``), h
-    (N, 2) memberships of the true front slip angle (the paper's measurable-premise
-    assumption), hdot (N, 2) [1/s] by central differences, alpha_f (N,) [rad].
+    (N, 2) memberships of the true front slip angle (truth: for Assumption 2 checks and
+    comparisons, never an observer input), hdot (N, 2) [1/s] by central differences,
+    alpha_f (N,) [rad].
     """
     t = np.arange(int(round(t_end / dt)) + 1) * dt
     delta = steering_signal(t)

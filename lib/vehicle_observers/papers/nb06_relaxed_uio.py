@@ -555,8 +555,7 @@ def fig_feasibility_map(fm: dict):
               title=r"best $\gamma$ (missing: infeasible)")
     ax[0].set_ylim(0, 1.15 * np.nanmax(np.r_[fm["gamma_a"], fm["gamma_b"].ravel()]))
     ax[0].legend(fontsize=8, loc="lower right")
-    cmap = plt.get_cmap("cividis").copy()
-    cmap.set_bad("0.75")                      # grey: no certified solution
+    cmap = plt.get_cmap("cividis").with_extremes(bad="0.75")   # grey: no certified solution
     im = ax[1].imshow(np.ma.masked_invalid(ratio.T), origin="lower", aspect="auto", cmap=cmap,
                       vmin=min(0.9, np.nanmin(ratio)), vmax=1.0)
     for i in range(len(alphas)):
