@@ -125,7 +125,12 @@ def test_simulation_metrics_against_independent_computation(case):
     assert 0 < m["premise_err_max"] < 0.1
     assert m["rmse_vy_b_truepremise"] == pytest.approx(m["rmse_vy_b"], rel=0.5)
     assert m["max_slip_deg"] == pytest.approx(np.degrees(np.abs(sc["alpha_f"]).max()))
-    assert m["max_abs_hdot"] < case["pb"]["phi"]
+    # Assumption 2 on the smooth part; across the fault step the finite difference is the
+    # Dirac of the offset step: h jump / (2 dt), independent check
+    assert m["max_abs_hdot_smooth"] < case["pb"]["phi"]
+    k = int(np.searchsorted(sc["t"], P.t_fault))
+    jump = np.abs(sc["h"][k, 0] - sc["h"][k - 1, 0])
+    assert m["max_abs_hdot"] >= jump / (2 * P.dt) * 0.99 > m["max_abs_hdot_smooth"]
     assert m["max_abs_delta"] == pytest.approx(np.abs(sc["delta"]).max())
     tab = us.rmse_table(*sim["ev"].items())
     assert [r["estimator"] for r in tab.rows] == ["a", "b"]
@@ -159,6 +164,12 @@ def test_delay_metrics_never_settling_is_a_finite_lower_bound():
     assert m == {"d": pytest.approx(4.0), "d_settles": False}
     assert _values(us.delay_metrics("d", {"fault_delay": 0.1}, sc0, "x")) == {
         "d": 0.1, "d_settles": True}
+
+
+def test_fault_step_samples():
+    sc = {"t": np.arange(0, 3.0005, 1e-3), "t_fault": 2.0}
+    m = us.fault_step_samples(sc)
+    np.testing.assert_allclose(sc["t"][m], [1.999, 2.0])
 
 
 def test_settled_fault_rmse_known_answer():
@@ -207,7 +218,7 @@ def _claim_values(**over):
              vy_measured=False, vy_conv_time_a=0.57, vy_conv_time_b=0.57, premise_err_max=0.02,
              rmse_vy_b_truepremise=0.0025, rmse_r_a_noisefree=1e-4, rmse_r_b_noisefree=1e-4,
              fault_delay_a=0.085, fault_delay_b=0.11, rmse_f_a=9e-4, rmse_f_b=9.5e-4,
-             max_abs_hdot=6.5, phi_design=6.8, delta_dot_max=0.3, ekf_fdot_max=0.05,
+             max_abs_hdot=6.5, max_abs_hdot_smooth=0.9, phi_design=6.8, delta_dot_max=0.3, ekf_fdot_max=0.05,
              map_n_only_b_admissible=0, map_containment=True, map_max_ratio_admissible=1.0,
              map_min_ratio_admissible=1.0, gamma_ratio_b_over_a=1.0, map_n_only_b=0,
              full_map_n_only_b_admissible=0, full_map_containment=True, full_map_n_only_b=1,
@@ -240,8 +251,8 @@ def test_claim_rules_follow_the_metrics(tmp_path):
     fast = list(_verdicts(tmp_path, vy_conv_time_b=0.4, fault_delay_b=0.05)[0].values())
     assert fast[2:4] == ["reproduced", "reproduced"]
     # Assumption 2 violated by the run, or a bound that proves little
-    assert list(_verdicts(tmp_path, max_abs_hdot=7.0)[0].values())[4] == "differs"
-    assert _verdicts(tmp_path, max_abs_hdot=0.1)[1].claims[4].proves_little is True
+    assert list(_verdicts(tmp_path, max_abs_hdot_smooth=7.0)[0].values())[4] == "differs"
+    assert _verdicts(tmp_path, max_abs_hdot_smooth=0.1)[1].claims[4].proves_little is True
     # an admissible cell where only (b) is feasible -> Remark 1 reproduced; worse -> differs
     assert list(_verdicts(tmp_path, map_n_only_b_admissible=1)[0].values())[5] == "reproduced"
     assert list(_verdicts(tmp_path, map_max_ratio_admissible=1.01)[0].values())[5] == "differs"

@@ -199,6 +199,16 @@ def delay_metrics(name: str, ev0: dict, sc0: dict, who: str) -> dict:
             f"{name}_settles": (settles, "", "")}
 
 
+def fault_step_samples(sc: dict):
+    """(N,) mask of the samples whose central difference spans the fault onset: a fault
+    offset is a step, so ``dh/dt`` there is a Dirac (the finite difference grows as 1/dt)
+    and lies outside Assumption 2 and the stated fault-rate bound."""
+    k = int(np.searchsorted(sc["t"], sc["t_fault"]))
+    m = np.zeros(len(sc["t"]), dtype=bool)
+    m[max(k - 1, 0):k + 1] = True
+    return m
+
+
 def simulation_metrics(sim: dict) -> dict:
     """Per design (estimated premises; after the fault, with / without noise): RMSE of
     ``v_y, r, f``, fault delay (noise-free, 10 % band), v_y convergence time (noise-free,
@@ -231,7 +241,11 @@ def simulation_metrics(sim: dict) -> dict:
                                                      "(b) fed the true memberships")
     out["max_abs_delta"] = (float(np.abs(sc["delta"]).max()), "rad", "steering input")
     out["max_slip_deg"] = (float(np.degrees(np.abs(sc["alpha_f"]).max())), "deg", "")
-    out["max_abs_hdot"] = (float(np.abs(sc["hdot"]).max()), "1/s", "Assumption 2 check")
+    step = fault_step_samples(sc)
+    out["max_abs_hdot"] = (float(np.abs(sc["hdot"]).max()), "1/s",
+                           "all samples: includes the finite difference across the fault step")
+    out["max_abs_hdot_smooth"] = (float(np.abs(sc["hdot"][~step]).max()), "1/s",
+                                  "Assumption 2 check, the two samples at the fault step left out")
     return out
 
 
@@ -412,13 +426,15 @@ def claims(g: dict) -> list[dict]:
                    f"{fmt(g['fault_delay_a'])} s (a); with noise fault RMSE "
                    f"{fmt(g['rmse_f_b'])} (b) vs {fmt(g['rmse_f_a'])} rad (a)")),
         dict(paper=PAPER, item="Fig. 7 / Assumption 2", figure="fig7_membership_derivatives",
-             metric="max |dh/dt| of the run / phi (phi from the input bounds)",
-             rule=Rule("max_abs_hdot / phi_design", reproduced="value <= 1",
+             metric="max |dh/dt| of the run (fault step left out) / phi (from input bounds)",
+             rule=Rule("max_abs_hdot_smooth / phi_design", reproduced="value <= 1",
                        informative="value >= 0.1",
                        paper="|dh_i/dt| below the bound phi"),
              note=f"phi = {fmt(g['phi_design'])} 1/s derived from |delta'| <= "
                   f"{fmt(g['delta_dot_max'])} rad/s, |f'| <= {fmt(g['ekf_fdot_max'])} rad/s, "
-                  "v_x and the tyre peak forces"),
+                  f"v_x and the tyre peak forces; across the fault step the finite difference "
+                  f"reaches {fmt(g['max_abs_hdot'])} 1/s (a Dirac sampled at 1 kHz, outside "
+                  "the fault-rate bound)"),
         dict(paper=PAPER, item="Remark 1 / Sec. 6", figure="feasibility_map",
              metric="cells with phi >= bound where only (b) is feasible",
              rule=Rule("map_n_only_b_admissible", reproduced="value >= 1",
@@ -531,11 +547,14 @@ def fig_fault_vs_ekf(sim: dict, ekf: dict):
 
 
 def fig_membership_derivatives(sc: dict, phi: float):
-    """Fig. 7 analogue: ``dh_1/dt, dh_2/dt`` [1/s] against the Assumption 2 bound ``phi``."""
+    """Fig. 7 analogue: ``dh_1/dt, dh_2/dt`` [1/s] against the Assumption 2 bound ``phi``
+    (the samples across the fault step, :func:`fault_step_samples`, left out)."""
+    hd = np.where(fault_step_samples(sc)[:, None], np.nan, sc["hdot"])
     fig, ax = plt.subplots(figsize=(9, 3))
-    time_series(ax, sc["t"], {r"$\dot h_1$": sc["hdot"][:, 0], r"$\dot h_2$": sc["hdot"][:, 1]},
+    time_series(ax, sc["t"], {r"$\dot h_1$": hd[:, 0], r"$\dot h_2$": hd[:, 1]},
                 ylabel=r"$\dot h_i$ [1/s]",
-                title=r"Fig. 7 analogue: membership derivatives vs the bound $\varphi$")
+                title=r"Fig. 7 analogue: $\dot h_i$ vs the bound $\varphi$ "
+                      "(the two samples across the fault step left out)")
     ax.axhline(phi, color="k", ls=":", label=r"$\pm\varphi$")
     ax.axhline(-phi, color="k", ls=":")
     ax.set_xlabel("t [s]")
