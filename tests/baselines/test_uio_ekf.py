@@ -14,7 +14,9 @@ T_FAULT, T_END = 1.5, 4.0
 
 @pytest.fixture(scope="module")
 def model():
-    return P.build_model()
+    """The C = I comparison variant (v_y and r measured, 1/m error): the filter machinery is
+    checked on it; the main model (v_y unmeasured) in ``test_noise_rule_main_model``."""
+    return P.build_model(variant="full")
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +54,19 @@ def test_noise_rule(model):
         ub.noise_rule(model, P.dt, tau=0.0)
 
 
+def test_noise_rule_main_model():
+    """Main model: two yaw-rate sensors, 1/I_z error (M = [0, 1]^T): the process noise sits
+    on the yaw equation, with d_max = rho |row 2 of A_i| . (0.5 m/s, 0.2 rad/s)."""
+    mm = P.build_model()
+    Q, R, info = ub.noise_rule(mm, P.dt)
+    np.testing.assert_allclose(R, np.diag([P.sigma_gyro**2, P.sigma_wheel**2]))
+    d = max(P.rho * (abs(A[1, 0]) * 0.5 + abs(A[1, 1]) * 0.2) for A in mm.A)
+    assert info["d_max"] == pytest.approx(d)
+    assert Q[1, 1] == pytest.approx(d**2 * P.dt) and Q[0, 0] == 0.0
+    Ab, _, Cb = ub.nominal_augmented(mm)
+    np.testing.assert_array_equal(Cb, [[0, 1, 1], [0, 1, 0]])   # v_y not measured
+
+
 def test_noise_rule_per_sample_vs_correlation_time(model):
     # per-sample rule: per-sample increment std = s dt, so Q_k = Q dt = (s dt)^2 and the
     # intensity scales with dt; correlation-time rule: Q = s^2 tau whatever dt is
@@ -67,7 +82,7 @@ def test_noise_rule_per_sample_vs_correlation_time(model):
         ub.noise_rule(model, P.dt, fdot_max=-1.0)
 
 
-@pytest.mark.parametrize("premise", ["measured", None])
+@pytest.mark.parametrize("premise", ["measured", None, "estimated"])
 def test_ekf_converges_on_its_own_model(nominal_case, premise):
     nom, sc = nominal_case
     ev = ub.evaluate_filter(nom, sc, h=premise, kind="ekf")
@@ -111,6 +126,8 @@ def test_bad_input(model, nominal_case):
         ub.run_filter(model, d, y, P.dt, 2 * h)
     with pytest.raises(ValueError, match=r"delta must be \(N,\)"):
         ub.run_filter(model, d[:, None], y, P.dt, h)
+    with pytest.raises(ValueError, match="'estimated'"):
+        ub.run_filter(model, d, y, P.dt, "guessed")
     with pytest.raises(ValueError, match="kind"):
         ub.run_filter(model, d, y, P.dt, h, kind="pf")
     with pytest.raises(ValueError, match=r"P0 must be \(3, 3\)"):

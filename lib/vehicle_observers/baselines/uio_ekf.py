@@ -41,9 +41,10 @@ Both rules use:
 * ``R = D_w D_w^T`` (the sensor noise variances, ``w ~ N(0, I)`` per sample);
 * fault: ``s = fdot_max``, the fault-rate bound the UIO's L2 index is normalised with
   (``model.scale_fdot``): ``q_f = fdot_max^2 dt`` (per-sample) or ``fdot_max^2 tau``;
-* states: the uncertainty acts along ``M`` with size ``d_max = max_i rho |[A_i]_1,forces|
-  scale_x[:2]`` (the ``1/m`` error applied to the force part at the model's typical state
-  magnitudes), ``Q_x = M M^T d_max^2 dt`` (per-sample) or ``M M^T d_max^2 tau``.
+* states: the uncertainty acts along ``M`` with size ``d_max = max_i |N_a,i| scale_x[:2]``
+  (the ``1/m`` or ``1/I_z`` error applied to the force part of the row ``M`` selects, at the
+  model's typical state magnitudes), ``Q_x = M M^T d_max^2 dt`` (per-sample) or
+  ``M M^T d_max^2 tau``.
 
 Units: SI throughout (m/s, rad/s, rad); arrays (N, ...) over samples.
 """
@@ -113,8 +114,10 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
     """Run the filterpy EKF (``kind='ekf'``) or UKF (``'ukf'``) on the nominal augmented model.
 
     delta (N,) [rad] measured steering, y (N, p) measurements ``C x + F_s f + noise`` (SI),
-    dt [s]; h (N, r) memberships (measured premises, as fed to the UIO) or ``None``
-    (memberships of the estimated front slip angle). ``Q``, ``R``: default
+    dt [s]; h (N, r) memberships (measured premises), ``None`` (memberships of the
+    estimated front slip angle, numerical Jacobian) or ``"estimated"`` (the same memberships
+    held over each step, as the UIO of :func:`.observers.uio.run_observer_estimated` does;
+    exact RK4 map, Jacobian without the membership derivative). ``Q``, ``R``: default
     :func:`noise_rule` (per-sample rule); ``X0`` (3,) default 0 (as the UIO's ``Xhat(0)``); ``P0`` default
     ``diag(scale_x^2)`` (the model's typical magnitudes). Returns a :class:`FilterRun` whose
     ``x`` is (N, 3) = ``[v_y, r, f]`` posterior estimates in SI units.
@@ -140,7 +143,34 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
     def hfun(X, u):
         return Cb @ X
 
-    if h is not None:
+    eye = np.eye(3)
+
+    def rk4_map(w, X, u0, dt_):
+        # the rule-blended model is linear with u and the memberships w held: its RK4 map is
+        # exactly X+ = Phi X + Gam u, Phi = sum_k (A dt)^k / k! (k <= 4), Gam = (...) dt B
+        A, B = _blend(w, Ab, Bb)
+        Ad = A * dt_
+        A2 = Ad @ Ad
+        S = eye + Ad / 2 + A2 / 6 + A2 @ Ad / 24
+        return X + Ad @ (S @ X) + dt_ * (S @ B) * u0, eye + Ad @ S
+
+    if isinstance(h, str):
+        if h != "estimated":
+            raise ValueError(f"h must be memberships (N, {r}), None or 'estimated', got {h!r}")
+        u = delta[:, None]
+
+        def w_est(X, u0):
+            return tyres.memberships(u0 + X[2] - (X[0] + lf * X[1]) / vx)
+
+        def f(X, u):
+            A, B = _blend(w_est(X, u[0]), Ab, Bb)
+            return A @ X + B * u[0]
+
+        def jac(X, u, dt_):
+            # memberships of the current estimate held over the step (as the UIO does);
+            # the Jacobian leaves out their derivative with respect to X
+            return rk4_map(w_est(X, u[0]), X, u[0], dt_)
+    elif h is not None:
         h = np.asarray(h, dtype=float)
         if h.shape != (N, r):
             raise ValueError(f"h must be ({N}, {r}) memberships, got {h.shape}")
@@ -152,16 +182,8 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
             A, B = _blend(u[1:], Ab, Bb)
             return A @ X + B * u[0]
 
-        eye = np.eye(3)
-
         def jac(X, u, dt_):
-            # the rule-blended model is linear with u held: its RK4 map is exactly
-            # X+ = Phi X + Gam u, Phi = sum_k (A dt)^k / k! (k <= 4), Gam = (sum_k ...) dt B
-            A, B = _blend(u[1:], Ab, Bb)
-            Ad = A * dt_
-            A2 = Ad @ Ad
-            S = eye + Ad / 2 + A2 / 6 + A2 @ Ad / 24
-            return X + Ad @ (S @ X) + dt_ * (S @ B) * u[0], eye + Ad @ S
+            return rk4_map(u[1:], X, u[0], dt_)
     else:
         u = delta[:, None]
         jac = None
@@ -183,8 +205,9 @@ def evaluate_filter(model: UncertainLateralTS, sc: dict, h="measured", kind: str
     metrics as :func:`.observers.uio.evaluate` (``rmse_vy``, ``rmse_r``, ``rmse_f`` after the fault,
     ``fault_delay``...) plus ``run`` (the :class:`FilterRun`) and ``us_per_step``.
 
-    ``h='measured'``: the scenario's true memberships (as the UIO gets them); ``None``:
-    estimated premises. Other keywords go to :func:`run_filter`.
+    ``h='measured'``: the scenario's true memberships (comparison only: they contain the
+    true slip angle and fault); ``None`` or ``'estimated'``: premises from the filter's own
+    estimate (:func:`run_filter`). Other keywords go to :func:`run_filter`.
     """
     hh = sc["h"] if isinstance(h, str) and h == "measured" else h
     run = run_filter(model, sc["delta"], sc["y"], sc["dt"], hh, kind, **kw)

@@ -19,9 +19,9 @@ any vehicle file, runs it on a :class:`~vehicle_observers.data.logs.DriveLog` an
   part), floored at 1e-4; initial box ``v_y in [-2, 2] m/s``, ``r`` +-0.6 rad/s around the
   first measurement.
 
-Not registered: the relaxed UIO of :mod:`.observers.uio` (El Youssfi 2020): its model measures
-``v_y`` *and* ``r`` (``C = I``) at one constant speed and estimates an actuator/sensor
-fault, a different problem from estimating ``v_y`` from yaw rate on a variable-speed log.
+Not registered: the relaxed UIO of :mod:`.observers.uio` (El Youssfi 2020): its model needs two
+yaw-rate sources (gyro and wheel-speed yaw rate) at one constant speed and estimates an
+actuator/sensor fault, a different problem from estimating ``v_y`` on a variable-speed log.
 """
 
 from __future__ import annotations

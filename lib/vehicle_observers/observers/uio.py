@@ -197,8 +197,9 @@ class UncertainLateralTS:
     """Uncertain two-rule TS lateral model with actuator + sensor fault, eqs. (8)-(15).
 
     m [kg], I_z [kg m^2], l_f, l_r [m], vx [m/s], tyres: :class:`FuzzyTyres`.
-    C (p, 2), F_s (p, 1): ``y = C x + F_s f``. M (2, nd): uncertainty direction, ``rho``:
-    relative size of the ``1/m`` error (only the simulation uses it: the UIO decouples it).
+    C (p, 2), F_s (p, 1): ``y = C x + F_s f``. M (2, 1): uncertainty direction, ``[1, 0]^T``
+    (relative error ``rho`` on ``1/m``) or ``[0, 1]^T`` (on ``1/I_z``); only the simulation
+    uses ``rho`` (the UIO decouples it).
     D_w (p, p): noise standard deviations (unit-variance ``w``); scale_x (3,): error
     normalisation of ``[v_y, r, f]``; scale_fdot: fault-rate normalisation [rad/s].
     """
@@ -225,6 +226,9 @@ class UncertainLateralTS:
                              f"row of C), got shape {self.F_s.shape}")
         self.F_s = self.F_s.reshape(len(self.C), 1)
         self.M = np.asarray(self.M, dtype=float).reshape(2, -1)
+        if self.M.shape != (2, 1) or np.count_nonzero(self.M) != 1:
+            raise ValueError(f"M must be [1, 0]^T (1/m error) or [0, 1]^T (1/I_z error), got "
+                             f"{self.M.ravel().tolist()}")
         self.D_w = np.atleast_2d(np.asarray(self.D_w, dtype=float))
         self.scale_x = np.asarray(self.scale_x, dtype=float)
         if self.vx <= 0:
@@ -258,21 +262,30 @@ class UncertainLateralTS:
         return np.array([self.rule_matrices(cf, cr)[1]
                          for cf, cr in zip(self.tyres.C_f, self.tyres.C_r)])
 
+    @property
+    def unc_row(self) -> int:
+        """Equation hit by the uncertainty: 0 (``1/m``, v_y equation) or 1 (``1/I_z``, r)."""
+        return int(np.flatnonzero(self.M[:, 0])[0])
+
     def uncertainty_matrices(self):
-        """``N_a (2, 1, 2), N_b (2, 1, 1)`` of (10) for the ``1/m`` error (force part of row 1)."""
+        """``N_a (2, 1, 2), N_b (2, 1, 1)`` of (10): ``rho`` times the force part of the row
+        of A_i, B_i selected by ``M`` (scaled by ``1/M[row]``)."""
+        k = self.unc_row
         Na, Nb = [], []
         for A, B in zip(self.A, self.B):
-            row = A[0].copy()
-            row[1] += self.vx           # remove the kinematic -v_x r term (not scaled by 1/m)
-            Na.append(self.rho * row[None, :])
-            Nb.append(self.rho * B[0][None, :])
+            row = A[k].copy()
+            if k == 0:
+                row[1] += self.vx       # remove the kinematic -v_x r term (not scaled by 1/m)
+            Na.append(self.rho * row[None, :] / self.M[k, 0])
+            Nb.append(self.rho * B[k][None, :] / self.M[k, 0])
         return np.array(Na), np.array(Nb)
 
     # --- augmented system (14)-(15), in normalised coordinates --------------------------
     def augmented(self):
         """Normalised augmented matrices ``(Abar (r,3,3), Bbar (r,3,1), Cbar (p,3),
         Mbar (3,nd), Gam (3,1), Dw (p,p))`` with ``X = S X_s``, ``y = R y_s``,
-        S = diag(scale_x), R = diag(scale_x[:2]) applied to C's rows when C = I, else I."""
+        S = diag(scale_x), R = :meth:`output_scale` (the scale of the state each row of C
+        reads)."""
         S = np.diag(self.scale_x)
         R = self.output_scale()
         Si, Ri = np.linalg.inv(S), np.linalg.inv(R)
@@ -618,8 +631,9 @@ def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius:
             except InfeasibleDesign:
                 pass
     lev = np.inf if gamma_level is None else gamma_level
-    fa = np.broadcast_to((np.nan_to_num(ga, nan=np.inf) <= lev)[:, None], gb.shape).copy()
-    fb = np.nan_to_num(gb, nan=np.inf) <= lev
+    fa = np.broadcast_to((np.isfinite(ga) & (np.nan_to_num(ga, nan=np.inf) <= lev))[:, None],
+                         gb.shape).copy()
+    fb = np.isfinite(gb) & (np.nan_to_num(gb, nan=np.inf) <= lev)
     return {"alpha": alphas, "phi": phis, "gamma_a": ga, "gamma_b": gb, "margin_a": ma,
             "margin_b": mb, "feasible_a": fa, "feasible_b": fb}
 
@@ -627,7 +641,8 @@ def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius:
 # ---------------------------------------------------------------------- simulation -------
 @njit(cache=True)
 def _truth_rhs(x, delta, f, Fu, P, out):
-    # P: m, Iz, lf, lr, vx, rho, a, b, c, Cf1, Cf2, Cr1, Cr2, pac, Bf, Cf, Df, Ef, Br, Cr, Dr, Er
+    # P: m, Iz, lf, lr, vx, rho, a, b, c, Cf1, Cf2, Cr1, Cr2, pac, Bf, Cf, Df, Ef, Br, Cr, Dr, Er,
+    # uncertain row
     m, Iz, lf, lr, vx, rho = P[0], P[1], P[2], P[3], P[4], P[5]
     af = delta + f - (x[0] + lf * x[1]) / vx
     ar = -(x[0] - lr * x[1]) / vx
@@ -641,8 +656,9 @@ def _truth_rhs(x, delta, f, Fu, P, out):
         h1 = 1.0 / (1.0 + u ** (2.0 * P[7]))
         Ff = (h1 * P[9] + (1 - h1) * P[10]) * af
         Fr = (h1 * P[11] + (1 - h1) * P[12]) * ar
-    out[0] = (1.0 + rho * Fu) * (Ff + Fr) / m - vx * x[1]
-    out[1] = (lf * Ff - lr * Fr) / Iz
+    k = P[22]                   # 0: uncertainty on 1/m, 1: on 1/I_z
+    out[0] = (1.0 + rho * Fu * (1.0 - k)) * (Ff + Fr) / m - vx * x[1]
+    out[1] = (1.0 + rho * Fu * k) * (lf * Ff - lr * Fr) / Iz
 
 
 @njit(cache=True)
@@ -676,7 +692,8 @@ def _simulate_truth(x0, delta, fault, Fu, dt, substeps, P):
 
 def simulate_truth(model: UncertainLateralTS, x0, delta, fault, F_unc, dt: float,
                    pacejka=None, substeps: int = 2):
-    """Simulate the faulty uncertain model (1)+(2)+(9)-(10) (RK4, ZOH inputs).
+    """Simulate the faulty uncertain model (1)+(2)+(9)-(10) (RK4, ZOH inputs); the factor
+    ``1 + rho F(t)`` multiplies the force term of the equation selected by ``model.M``.
 
     x0 (2,); delta, fault, F_unc (N,) [rad, rad, -] sampled every ``dt`` s; ``|F_unc| <= 1``.
     ``pacejka=(tire_f, tire_r)``: use those Pacejka forces instead of the fuzzy ones (model
@@ -702,7 +719,7 @@ def simulate_truth(model: UncertainLateralTS, x0, delta, fault, F_unc, dt: float
         tf, tr = pacejka
         pac = np.array([1.0, tf.B, tf.C, tf.D, tf.E, tr.B, tr.C, tr.D, tr.E])
     P = np.r_[model.m, model.I_z, model.l_f, model.l_r, model.vx, model.rho, ty.a, ty.b, ty.c,
-              ty.C_f[0], ty.C_f[1], ty.C_r[0], ty.C_r[1], pac]
+              ty.C_f[0], ty.C_f[1], ty.C_r[0], ty.C_r[1], pac, float(model.unc_row)]
     return _simulate_truth(np.asarray(x0, dtype=float).copy(), delta, fault, F_unc, float(dt),
                            int(substeps), P)
 
@@ -766,6 +783,13 @@ def _run_observer(z0, u, Ys, Hm, N, G, L, H, dt):
     return out
 
 
+def _check_rk4(gains: UIOGains, dt: float):
+    lam = float(np.abs(gains.poles).max())
+    if lam * dt > 2.5:
+        raise ValueError(f"observer pole |lambda| = {lam:.3g} 1/s is too fast for RK4 at dt = "
+                         f"{dt} s (|lambda| dt = {lam * dt:.2f} > 2.5); use a smaller dt")
+
+
 def run_observer(gains: UIOGains, delta, y, h, dt: float, X0_hat=None):
     """Run the UIO (20) on measured steering ``delta`` (N,) [rad], outputs ``y`` (N, p) in
     SI units and memberships ``h`` (N, 2). Returns ``Xhat`` (N, 3) = ``[v_y, r, f]`` in SI.
@@ -784,16 +808,127 @@ def run_observer(gains: UIOGains, delta, y, h, dt: float, X0_hat=None):
         raise ValueError(f"h must be ({N}, {gains.N.shape[0]}) memberships, got {h.shape}")
     if np.abs(h.sum(axis=1) - 1).max() > 1e-9 or h.min() < -1e-12:
         raise ValueError("memberships h must be >= 0 and sum to 1 on every row")
-    lam = float(np.abs(gains.poles).max())
-    if lam * dt > 2.5:
-        raise ValueError(f"observer pole |lambda| = {lam:.3g} 1/s is too fast for RK4 at dt = "
-                         f"{dt} s (|lambda| dt = {lam * dt:.2f} > 2.5); use a smaller dt")
+    _check_rk4(gains, dt)
     Ys = np.ascontiguousarray(y / gains.R)
     Xs0 = np.zeros(3) if X0_hat is None else np.asarray(X0_hat, dtype=float) / gains.S
     z0 = Xs0 - gains.H @ Ys[0]
     Xs = _run_observer(z0, delta, Ys, h, gains.N, gains.G, gains.L,
                        np.ascontiguousarray(gains.H), float(dt))
     return Xs * gains.S
+
+
+@njit(cache=True)
+def _run_observer_sched(z0, u, Ys, N, G, L, H, S, prem, dt):
+    """RK4 of (20) with the memberships of the *estimated* front slip angle
+    ``delta + f_hat - (v_y_hat + l_f r_hat) / v_x`` (held over each step).
+    prem = [a, b, c, l_f, v_x]. Returns Xhat_s (K, 3) normalised and h (K, 2)."""
+    K = u.shape[0]
+    n = z0.shape[0]
+    p = Ys.shape[1]
+    out = np.empty((K, n))
+    hh = np.empty((K, 2))
+    z = z0.copy()
+    hk = np.empty(2)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    for k in range(K):
+        for i in range(n):
+            s = z[i]
+            for j in range(p):
+                s += H[i, j] * Ys[k, j]
+            out[k, i] = s
+        af = u[k] + S[2] * out[k, 2] - (S[0] * out[k, 0] + prem[3] * S[1] * out[k, 1]) / prem[4]
+        hk[0] = 1.0 / (1.0 + abs((af - prem[2]) / prem[0]) ** (2.0 * prem[1]))
+        hk[1] = 1.0 - hk[0]
+        hh[k, 0] = hk[0]
+        hh[k, 1] = hk[1]
+        _observer_rhs(z, u[k], Ys[k], hk, N, G, L, k1)
+        for i in range(n):
+            tmp[i] = z[i] + 0.5 * dt * k1[i]
+        _observer_rhs(tmp, u[k], Ys[k], hk, N, G, L, k2)
+        for i in range(n):
+            tmp[i] = z[i] + 0.5 * dt * k2[i]
+        _observer_rhs(tmp, u[k], Ys[k], hk, N, G, L, k3)
+        for i in range(n):
+            tmp[i] = z[i] + dt * k3[i]
+        _observer_rhs(tmp, u[k], Ys[k], hk, N, G, L, k4)
+        for i in range(n):
+            z[i] += dt / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
+    return out, hh
+
+
+def run_observer_estimated(gains: UIOGains, tyres: FuzzyTyres, l_f: float, vx: float, delta,
+                           y, dt: float, X0_hat=None):
+    """Run the UIO (20) scheduled on its own estimate: memberships (5)-(7) of
+    ``alpha_f_hat = delta + f_hat - (v_y_hat + l_f r_hat) / v_x`` [rad]. Inputs are only the
+    measured steering ``delta`` (N,) [rad] and outputs ``y`` (N, p) (SI): no true state,
+    slip angle or fault. Returns ``(Xhat (N, 3) = [v_y, r, f] in SI, h (N, 2) used)``."""
+    delta = np.ascontiguousarray(delta, dtype=float)
+    y = np.atleast_2d(np.asarray(y, dtype=float))
+    N, p = len(delta), gains.H.shape[1]
+    if y.shape != (N, p):
+        raise ValueError(f"y must be ({N}, {p}) (samples x outputs), got {y.shape}")
+    if gains.N.shape[0] != 2:
+        raise ValueError(f"estimated premises need the two-rule bell model, got "
+                         f"{gains.N.shape[0]} rules")
+    _check_rk4(gains, dt)
+    Ys = np.ascontiguousarray(y / gains.R)
+    Xs0 = np.zeros(3) if X0_hat is None else np.asarray(X0_hat, dtype=float) / gains.S
+    z0 = Xs0 - gains.H @ Ys[0]
+    prem = np.array([tyres.a, tyres.b, tyres.c, l_f, vx], dtype=float)
+    Xs, h = _run_observer_sched(z0, delta, Ys, gains.N, gains.G, gains.L,
+                                np.ascontiguousarray(gains.H), np.asarray(gains.S, float),
+                                prem, float(dt))
+    return Xs * gains.S, h
+
+
+def observer_rhs_readable(z, u: float, y_s, h, gains: UIOGains):
+    """UIO (20), readable numpy form: ``z' = sum_i h_i (N_i z + G_i u + L_i y)``
+    (normalised coordinates, z (3,), y_s (p,), h (r,)); equal to the compiled kernel."""
+    return sum(h[i] * (gains.N[i] @ z + gains.G[i][:, 0] * u + gains.L[i] @ y_s)
+               for i in range(len(h)))
+
+
+def observer_step_readable(z, u: float, y_s, h, gains: UIOGains, dt: float):
+    """One RK4 step of :func:`observer_rhs_readable` with u, y, h held [s]; returns the new
+    z and the estimate ``Xhat_s = z + H y_s`` (both normalised) before the step."""
+    def f(zz):
+        return observer_rhs_readable(zz, u, y_s, h, gains)
+    k1 = f(z)
+    k2 = f(z + 0.5 * dt * k1)
+    k3 = f(z + 0.5 * dt * k2)
+    k4 = f(z + dt * k3)
+    return z + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), z + gains.H @ y_s
+
+
+def phi_bound(model: UncertainLateralTS, delta_dot_max: float, fdot_max: float, D_f: float,
+              D_r: float) -> dict:
+    """Assumption 2 bound ``phi >= |dh_i/dt|`` [1/s] from stated input bounds, not a run.
+
+    ``|h'| <= max|dh_1/dalpha| |alpha_f'|`` with (3) ``alpha_f' = delta' + f' - (v_y' + l_f
+    r')/v_x`` and: ``|delta'| <= delta_dot_max`` [rad/s] (driver), ``|f'| <= fdot_max``
+    [rad/s]; tyre forces below the Pacejka peaks ``D_f, D_r`` [N] (friction limit), so
+    ``|a_y| <= (Df + Dr)/m``, ``|v_y'| = |a_y - v_x r| <= 2 a_y,max`` (steady-state yaw-rate
+    limit ``|r| <= a_y,max / v_x``), ``|r'| <= (l_f D_f + l_r D_r)/I_z``; the uncertain
+    equation carries ``1 + rho``. Returns the parts and ``phi``."""
+    if not (delta_dot_max >= 0 and fdot_max >= 0 and D_f > 0 and D_r > 0):
+        raise ValueError(f"input bounds must be >= 0, got delta_dot_max={delta_dot_max}, "
+                         f"fdot_max={fdot_max}, peak forces D_f={D_f}, D_r={D_r} > 0")
+    ty = model.tyres
+    al = np.linspace(ty.c - 20 * ty.a, ty.c + 20 * ty.a, 400001)
+    dh = float(np.abs(gbell_derivative(al, ty.a, ty.b, ty.c)).max())
+    Df, Dr = float(D_f), float(D_r)
+    k_m = 1 + model.rho * (model.unc_row == 0)
+    k_i = 1 + model.rho * (model.unc_row == 1)
+    ay = k_m * (Df + Dr) / model.m
+    rdot = k_i * (model.l_f * Df + model.l_r * Dr) / model.I_z
+    adot = delta_dot_max + fdot_max + (2 * ay + model.l_f * rdot) / model.vx
+    return {"delta_dot_max": float(delta_dot_max), "dh_dalpha_max": dh, "ay_max": ay,
+            "rdot_max": rdot, "alpha_dot_max": adot,
+            "phi": dh * adot}
 
 
 # ----------------------------------------------------------------------- metrics ---------
@@ -851,8 +986,9 @@ def make_scenario(model: UncertainLateralTS, t_end: float, dt: float, t_fault: f
 
     Returns t (N,), delta (N,), f (N,), F (N,), X (N, 2) true ``[v_y, r]``, y (N, 2)
     measured (``C x + F_s f`` + noise ``D_w w`` with ``w ~ N(0, I)`` from ``seed``), h
-    (N, 2) memberships of the true front slip angle (the paper's measurable-premise
-    assumption), hdot (N, 2) [1/s] by central differences, alpha_f (N,) [rad].
+    (N, 2) memberships of the true front slip angle (truth: for Assumption 2 checks and
+    comparisons, never an observer input), hdot (N, 2) [1/s] by central differences,
+    alpha_f (N,) [rad].
     """
     t = np.arange(int(round(t_end / dt)) + 1) * dt
     delta = steering_signal(t)
@@ -870,17 +1006,27 @@ def make_scenario(model: UncertainLateralTS, t_end: float, dt: float, t_fault: f
             "alpha_f": af, "dt": dt, "t_fault": t_fault}
 
 
-def evaluate(gains: UIOGains, sc: dict, X0_hat=None, h=None) -> dict:
+def evaluate(gains: UIOGains, sc: dict, model: UncertainLateralTS, premise: str = "estimated",
+             X0_hat=None) -> dict:
     """Run the UIO on a scenario and compute the paper's error metrics.
 
-    ``h`` overrides the memberships fed to the observer (default: the true ones).
-    Returns Xhat (N, 3) and rmse_vy, rmse_r, rmse_f after the fault appears (SI units),
-    rmse before it, the fault-estimation delay (10 % band; also on the 20 ms moving mean of
-    the error) and the peak |error| per state in the 0.5 s after the fault appears.
+    ``premise="estimated"``: memberships of the observer's own slip-angle estimate
+    (:func:`run_observer_estimated`; reads only ``sc["delta"], sc["y"], sc["dt"]``);
+    ``"true"``: the scenario's true memberships ``sc["h"]`` (comparison only: they contain
+    the true slip angle and fault). Returns Xhat (N, 3), h_used (N, 2) and rmse_vy, rmse_r,
+    rmse_f after the fault appears (SI units), rmse before it, the fault-estimation delay
+    (10 % band; also on the 20 ms moving mean of the error) and the peak |error| per state
+    in the 0.5 s after the fault appears.
     """
-    hh = sc["h"] if h is None else h
-    Xh = run_observer(gains, sc["delta"], sc["y"], hh, sc["dt"], X0_hat)
-    return estimate_metrics(Xh, sc)
+    if premise == "estimated":
+        Xh, hh = run_observer_estimated(gains, model.tyres, model.l_f, model.vx, sc["delta"],
+                                        sc["y"], sc["dt"], X0_hat)
+    elif premise == "true":
+        hh = sc["h"]
+        Xh = run_observer(gains, sc["delta"], sc["y"], hh, sc["dt"], X0_hat)
+    else:
+        raise ValueError(f"premise must be 'estimated' or 'true', got {premise!r}")
+    return estimate_metrics(Xh, sc) | {"h_used": hh}
 
 
 def estimate_metrics(Xh, sc: dict) -> dict:

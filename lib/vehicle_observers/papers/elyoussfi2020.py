@@ -12,15 +12,19 @@ tyres (:mod:`.yacine2015`) as the "true" cornering-force curves that the fuzzy f
 are identified from (Levenberg-Marquardt, as in Sec. 2.2). Constant speed (Sec. 5 says
 v_x is constant; its value is lost): ``vx = 15 m/s``. No yaw moment (M_z = 0, Sec. 5).
 
-Measurements: ``y = C x + F_s f`` with ``C = I_2`` (lateral velocity and yaw rate, both
-sensed) and the fault on the yaw-rate gyro, ``F_s = [0, 1]^T`` (rad/s per rad); the
-actuator part of the *same* fault ``f`` adds to the steering angle, ``E_f = B_i`` (Sec. 6:
-"an identical fault affects the actuator and the sensor").
+Main problem (``build_model()``, v_y **not measured**): two yaw-rate sources,
+``y = C x + F_s f`` with ``C = [[0, 1], [0, 1]]`` (row 1: the gyro, row 2: the yaw rate
+from the rear wheel-speed difference of the ABS sensors) and the fault on the gyro,
+``F_s = [1, 0]^T``; the actuator part of the *same* fault ``f`` adds to the steering angle
+(Sec. 6: "an identical fault affects the actuator and the sensor"). Uncertainty (10):
+a relative error ``rho`` on ``1/I_z`` (payload placement), ``M = [0, 1]^T``. Then
+``Cbar Mbar = [1, 1]^T`` has rank 1 = rank(Mbar) and (T Abar_i, Cbar) is detectable: its only
+unobservable mode is the open-loop lateral-velocity mode ``[A_i]_11`` (-4.05 and -0.99 1/s),
+so the decay rate must stay below 0.99 1/s (``alpha_design = 0.5``).
 
-Uncertainty (10): ``Delta A_i = M F(t) N_{a,i}``, ``Delta B_i = M F(t) N_{b,i}``,
-``|F| <= 1``; we take a relative error ``rho`` on ``1/m`` (payload), so ``M = [1, 0]^T``
-(full column rank, as the text requires) and ``N_{a,i} = rho [A_i]_{1, forces}``,
-``N_{b,i} = rho [B_i]_1``. One column is the most the UIO can decouple with two outputs.
+Comparison variant (``build_model(variant="full")``, the first version of this
+reproduction): ``C = I_2`` (v_y also measured), fault on the gyro, ``M = [1, 0]^T`` (error on
+``1/m``). There v_y lies in the decoupled direction and its "estimate" is the measurement.
 """
 
 import numpy as np
@@ -37,38 +41,56 @@ n_fit = 401                        # grid points per axle for the identification
 # initial guess (a [rad], b [-], c [rad], C_f1, C_f2, C_r1, C_r2 [N/rad]) for LM
 fit_x0 = (np.radians(4.0), 1.0, 0.0, 4.2e4, 2.5e4, 4.9e4, 2.5e4)
 
-C = np.eye(2)                      # y = [v_y, r] (both sensed)
-F_s = np.array([[0.0], [1.0]])     # sensor part of the fault: yaw-rate gyro
-M = np.array([[1.0], [0.0]])       # uncertainty direction (1/m error)
-rho = 0.2                          # +-20 % on 1/m
+# main problem: v_y unmeasured; gyro (faulty) and wheel-speed yaw rate
+C = np.array([[0.0, 1.0], [0.0, 1.0]])   # y = [r_gyro, r_wheel]
+F_s = np.array([[1.0], [0.0]])     # sensor part of the fault: the gyro (rad/s per rad)
+M = np.array([[0.0], [1.0]])       # uncertainty direction: 1/I_z error
+rho = 0.2                          # +-20 % on 1/I_z
+sigma_gyro = 0.002                 # rad/s, gyro noise standard deviation
+sigma_wheel = 0.005                # rad/s, wheel-speed yaw-rate noise standard deviation
 
-# measurement noise (standard deviations) used in the L2-gain index and in the simulation
+# comparison variant (C = I): v_y measured, uncertainty on 1/m
+C_full = np.eye(2)                 # y = [v_y, r]
+F_s_full = np.array([[0.0], [1.0]])
+M_full = np.array([[1.0], [0.0]])
 sigma_vy = 0.02                    # m/s
 sigma_r = 0.002                    # rad/s
+alpha_full = 2.0                   # 1/s, design decay rate of the variant
+phi_full = 10.0                    # 1/s, the variant's first (run-based) phi
 
 # normalisation of the estimation-error output (typical magnitudes) and of the fault rate
 scale_x = np.array([0.5, 0.2, 0.02])   # v_y [m/s], r [rad/s], f [rad]
-scale_fdot = 0.05                      # rad/s, typical fault rate
+scale_fdot = 0.05                      # rad/s, fault-rate bound (also the L2-index scale)
+
+# stated input bound behind phi (Assumption 2): road-wheel steering rate
+delta_dot_max = 0.3                # rad/s (~ 260 deg/s at the steering wheel, ratio 15)
 
 # design parameters (Theorem 2 / Remark 2: "chosen arbitrarily ... feasible"); sweep ranges
-alpha_design = 2.0                 # 1/s, decay rate of the Lyapunov function (V' <= -2 alpha V)
-phi_design = 10.0                  # 1/s, |dh_i/dt| bound (Assumption 2; run max ~ 6 1/s)
+alpha_design = 0.5                 # 1/s, decay rate (V' <= -2 alpha V), below the v_y mode 0.99
 mu_grid = (1e-6, 1e-3, 1e-2)       # s, Finsler slack scalar mu (line search, Remark 2)
 radius = 200.0                     # 1/s, observer poles kept in |lambda| < radius (1 kHz RK4)
-gamma_level = 0.55                 # L2-gain level defining the feasibility map
 
 # scenario (Fig. 3 analogue): steering, fault, uncertainty signal
 t_end = 20.0                       # s
 dt = 1e-3                          # s (1 kHz)
 t_fault = 8.0                      # s, fault appears
 x0_true = np.array([0.3, 0.05])    # v_y [m/s], r [rad/s] (system initial state)
+fault_offset = 0.01                # rad, fault offset after t_fault
+fault_amp = 0.005                  # rad, amplitude of its 0.5 Hz sine
 
 
-def build_model(rho_value: float | None = None):
-    """Identify the fuzzy forces from the Pacejka tyres and build the uncertain TS model."""
+def build_model(rho_value: float | None = None, variant: str = "yaw"):
+    """Identify the fuzzy forces from the Pacejka tyres and build the uncertain TS model.
+
+    ``variant="yaw"`` (main problem, v_y unmeasured) or ``"full"`` (comparison, C = I)."""
     from vehicle_observers.observers.uio import UncertainLateralTS, fit_fuzzy_forces
 
     ty = fit_fuzzy_forces(tire_f, tire_r, alpha_fit_max, n_fit, fit_x0)
-    return UncertainLateralTS(m, I_z, l_f, l_r, vx, ty, C, F_s, M,
-                              rho if rho_value is None else rho_value,
-                              np.diag([sigma_vy, sigma_r]), scale_x, scale_fdot)
+    r = rho if rho_value is None else rho_value
+    if variant == "yaw":
+        return UncertainLateralTS(m, I_z, l_f, l_r, vx, ty, C, F_s, M, r,
+                                  np.diag([sigma_gyro, sigma_wheel]), scale_x, scale_fdot)
+    if variant == "full":
+        return UncertainLateralTS(m, I_z, l_f, l_r, vx, ty, C_full, F_s_full, M_full, r,
+                                  np.diag([sigma_vy, sigma_r]), scale_x, scale_fdot)
+    raise ValueError(f"variant must be 'yaw' (v_y unmeasured) or 'full' (C = I), got {variant!r}")
