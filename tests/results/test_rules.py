@@ -109,11 +109,13 @@ def test_report_computes_stores_and_writes(tmp_path):
     assert load_metrics(path)["ratio"] == 0.007077
 
 
-def test_report_claim_with_rule_takes_no_handwritten_verdict(tmp_path):
+def test_report_claim_takes_no_handwritten_verdict(tmp_path):
     rep = Report("99_test", tmp_path, show=False)
     rep.metric("a", 1.0)
-    with pytest.raises(TypeError, match="neither target nor verdict"):
+    with pytest.raises(TypeError, match="unexpected keyword argument 'verdict'"):
         rep.claim("P", "i", "", "m", Rule("a", reproduced="value < 2"), verdict="differs")
+    with pytest.raises(TypeError, match="rule must be a Rule"):
+        rep.claim("P", "i", "", "m", 1.0)
 
 
 def test_default_output_is_the_ignored_interactive_folder():

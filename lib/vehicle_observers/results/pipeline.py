@@ -69,8 +69,7 @@ def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -
              "reproduced-condition holds, else **partly** if the partly-condition holds, else "
              "**differs**; **not comparable** where the paper prints no number or behaviour to "
              "test. \"Holds but proves little\" marks a check that passes without telling much "
-             "(its informative-condition fails). Verdicts still marked \"(hand-written verdict)\" "
-             "were not computed.", ""]
+             "(its informative-condition fails).", ""]
     counts: dict[str, int] = {}
     for d in docs:
         nb = d["notebook"]

@@ -171,30 +171,19 @@ class Report:
         return value
 
     # ------------------------------------------------------------------ claims -----------
-    def claim(self, paper: str, item: str, figure: str, metric: str, rule: Rule = None,
-              target=None, verdict=None, note: str = "", value=None):
+    def claim(self, paper: str, item: str, figure: str, metric: str, rule: Rule,
+              note: str = ""):
         """Record one paper claim; its verdict is computed by ``rule`` (a
-        :class:`~vehicle_observers.results.rules.Rule`) from the metrics recorded so far.
-
-        The older form ``claim(paper, item, figure, metric, value, target, verdict, note)``
-        with a hand-written verdict is still accepted while the notebooks move to rules; such a
-        claim is marked ``rule: "(hand-written verdict)"`` in REPRODUCTION.md."""
-        if isinstance(rule, Rule):
-            if target is not None or verdict is not None:
-                raise TypeError(f"claim {paper} {item}: with a Rule, give neither target nor verdict")
-            j = rule.judge(self.values())
-            c = Claim(paper, item, figure, metric, round_sig(_jsonable(j.value), 4), rule.paper,
-                      j.verdict, note,
-                      rule.text(), j.proves_little,
-                      {k: v for k, v in asdict(rule).items() if v is not None})
-            self.claims.append(c)
-            return j
-        if verdict not in VERDICTS:
-            raise ValueError(f"verdict must be one of {VERDICTS}, got {verdict!r}")
-        value = rule if value is None else value
-        self.claims.append(Claim(paper, item, figure, metric, _jsonable(value), target, verdict,
-                                 note, "(hand-written verdict)"))
-        return None
+        :class:`~vehicle_observers.results.rules.Rule`) from the metrics recorded so far. There
+        is no way to pass a verdict: it is never written by hand."""
+        if not isinstance(rule, Rule):
+            raise TypeError(f"claim {paper} {item}: rule must be a Rule (the verdict is computed "
+                            f"from it), got {type(rule).__name__}")
+        j = rule.judge(self.values())
+        self.claims.append(Claim(paper, item, figure, metric, round_sig(_jsonable(j.value), 4),
+                                 rule.paper, j.verdict, note, rule.text(), j.proves_little,
+                                 {k: v for k, v in asdict(rule).items() if v is not None}))
+        return j
 
     # ------------------------------------------------------------------ output -----------
     def write(self) -> Path:
