@@ -1,0 +1,121 @@
+"""Speed of ``python -m vehicle_observers estimate`` end to end (part of ``make bench``).
+
+Two targets, each measured as a fresh process (wall clock including interpreter start-up,
+imports, loading the numba kernels from their cache, reading, tuning, filtering, writing):
+
+1. ``estimate`` on the shipped Revs log (55,001 rows at 100 Hz) with ``--observer ekf`` and
+   the built-in ``revs250lm`` vehicle (no ``[kalman]`` table: the ML noise tuning runs on the
+   first 120 s thinned to 25 Hz, :data:`registry.TUNE_RATE_HZ`): at most
+   :data:`TARGET_REVS_S` s. The accuracy of the tuning on the thinned window is reported
+   beside that of the full-rate (100 Hz) tuning: ``v_y`` RMSE against the log's INS ``v_y``.
+2. A 10^7-row log (the Revs channels repeated with a continuous time axis) with ``ekf``:
+   at most :data:`TARGET_BIG_S` s and :data:`TARGET_BIG_MB` MB peak resident memory
+   (``ru_maxrss`` of the child process, :func:`resource.getrusage`).
+
+    python -m vehicle_observers.bench.cli [--quick]
+
+``--quick`` (CI) uses 10^5 rows for the second case; the target columns then say so.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+TARGET_REVS_S = 3.0
+TARGET_BIG_S = 30.0
+TARGET_BIG_MB = 2000.0
+BIG_ROWS = 10 ** 7
+
+
+def _run_cli(*argv) -> tuple[float, float, subprocess.CompletedProcess]:
+    """(wall seconds, child peak RSS [MB], completed process) of one fresh CLI process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "vehicle_observers", *map(str, argv)],
+                       capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    if p.returncode != 0:
+        raise RuntimeError(f"CLI exited {p.returncode}: {p.stderr.strip()}")
+    # ru_maxrss of the children is a maximum over all of them: only a new maximum is this run's
+    return wall, (peak if peak > before else float("nan")) / 1024.0, p
+
+
+def big_log(path: Path, rows: int):
+    """Write a ``rows``-row log: the Revs channels (t, v_x, delta, r, a_y) repeated, time
+    continuous at 100 Hz."""
+    from vehicle_observers.data.logs import load_revs, write_csv
+
+    revs = load_revs()
+    reps = -(-rows // len(revs))
+    cols = {"t_s": np.arange(rows) * 0.01}
+    for c, a in (("vx_mps", revs.vx), ("delta_roadwheel_rad", revs.delta),
+                 ("yaw_rate_radps", revs.yaw_rate), ("ay_mps2", revs.ay)):
+        cols[c] = np.tile(a, reps)[:rows]
+    write_csv(path, cols)
+
+
+def tuning_accuracy() -> dict:
+    """``v_y`` RMSE of the EKF on the whole Revs log with the ML tuning at the full 100 Hz
+    and at :data:`registry.TUNE_RATE_HZ`, and the tuning times."""
+    from vehicle_observers.cli import registry as RG
+    from vehicle_observers.core.metrics import rmse
+    from vehicle_observers.data.logs import load_revs
+    from vehicle_observers.models.vehicle import load_vehicle
+
+    log, veh = load_revs(), load_vehicle("revs250lm")
+    out = {}
+    for tag, hz in (("100hz", 100.0), ("thinned", RG.TUNE_RATE_HZ)):
+        tun, sec = RG.kalman_tuning(log, veh, rate_hz=hz)
+        cols, _ = RG.ekf_columns(log, veh, tun)
+        out[f"rmse_vy_{tag}"] = rmse(cols["vy_mps"], log.vy)
+        out[f"tuning_s_{tag}"] = sec
+    return out
+
+
+def run(quick: bool = False) -> list[dict]:
+    """Rows ``{"component", "steps", "seconds", "us_per_step", ...}``."""
+    from vehicle_observers.data.logs import revs_log_path
+
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        est = d / "est.csv"
+        args = ("estimate", revs_log_path(), "--vehicle", "revs250lm", "--observer", "ekf",
+                "--out", est, "--no-progress")
+        _run_cli(*args)            # first run: numba cache filled if it was empty
+        wall, mb, _ = _run_cli(*args)
+        acc = tuning_accuracy()
+        rows.append({"component": "estimate --observer ekf, Revs log (55,001 rows), process",
+                     "steps": 55001, "seconds": wall, "us_per_step": wall / 55001 * 1e6,
+                     "peak_mb": mb, "target_seconds": TARGET_REVS_S,
+                     "meets_target": bool(wall <= TARGET_REVS_S), **acc})
+        n = 10 ** 5 if quick else BIG_ROWS
+        big = d / "big.csv"
+        big_log(big, n)
+        size_mb = os.path.getsize(big) / 2 ** 20
+        wall, mb, p = _run_cli("estimate", big, "--vehicle", "revs250lm", "--observer", "ekf",
+                               "--out", d / "big_est.csv", "--no-progress")
+        os.unlink(big)
+        rows.append({"component": f"estimate --observer ekf, {n:.0e} rows ({size_mb:.0f} MB "
+                                  "CSV), process", "steps": n, "seconds": wall,
+                     "us_per_step": wall / n * 1e6, "peak_mb": mb,
+                     "target_seconds": TARGET_BIG_S if n == BIG_ROWS else float("nan"),
+                     "target_mb": TARGET_BIG_MB if n == BIG_ROWS else float("nan"),
+                     "meets_target": bool(n == BIG_ROWS and wall <= TARGET_BIG_S
+                                          and mb <= TARGET_BIG_MB),
+                     "cli_line": p.stdout.splitlines()[0]})
+    return rows
+
+
+if __name__ == "__main__":
+    for row in run(quick="--quick" in sys.argv):
+        print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
