@@ -193,7 +193,7 @@ class _Bar:
 def cmd_estimate(args, out=None):
     out = out or sys.stdout
     from vehicle_observers.cli.registry import available, score
-    from vehicle_observers.data.logs import AtomicOutput
+    from vehicle_observers.data.logs import OPTIONAL, REQUIRED, AtomicOutput
     from vehicle_observers.models.vehicle import load_vehicle
 
     obs = available()
@@ -212,8 +212,9 @@ def cmd_estimate(args, out=None):
             raise CLIError(f"--out {args.out}: cannot write there "
                            f"({exc.strerror or exc})") from None
         try:
-            cols = (*spec.columns, *spec.optional_columns, "vy_mps", "Ff_N", "Fr_N",
-                    "yaw_rate_true_radps")
+            # every schema column is read and checked (an absurd value in any channel is
+            # refused), plus the emulated logs' yaw-rate truth used for scoring
+            cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
             log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
             spec.check(log, vehicle)
             bar.stage(10, "design / tuning")
@@ -271,12 +272,18 @@ def cmd_tune(args, out=None):
     return 0
 
 
-class _Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that partial output is removed."""
-
-
 def _on_sigterm(signum, frame):
-    raise _Terminated()
+    """SIGTERM: remove the partial output, one line, exit 143 at once (no exception is
+    raised: it could surface inside a pyarrow or numba call)."""
+    from vehicle_observers.data.logs import ACTIVE_PARTIALS
+
+    for p in list(ACTIVE_PARTIALS):
+        try:
+            p.unlink()
+        except OSError:
+            pass
+    os.write(2, b"error: terminated by SIGTERM (no output written)\n")
+    os._exit(143)
 
 
 #: errors caused by the input (exit status 2)
@@ -318,9 +325,6 @@ def main(argv=None) -> int:
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    except _Terminated:
-        print("error: terminated by SIGTERM (no output written)", file=sys.stderr)
-        return 143
     except KeyboardInterrupt:
         print("error: interrupted (no output written)", file=sys.stderr)
         return 130

@@ -267,7 +267,8 @@ register(ObserverSpec("rts", "extended RTS smoother (OFFLINE, non-causal referen
 def score(est: Estimates, log: DriveLog, mask=None) -> dict:
     """Benchmark metrics of ``est`` against the reference columns the log has.
 
-    vy (``vy_mps``) and sideslip (atan2(vy, vx)) RMSE / max error; yaw rate against the
+    vy (``vy_mps``) and sideslip (atan2(vy, vx), on rows with ``v_x >= V_LOW`` only) RMSE /
+    max error; yaw rate against the
     log's yaw-rate truth (``yaw_rate_true_radps`` in emulated logs) or the measured
     channel; axle forces when the log has ``Ff_N``/``Fr_N``; for interval observers the
     enclosure rate and mean width of vy and yaw rate. ``mask`` (N,) bool restricts the
@@ -285,8 +286,10 @@ def score(est: Estimates, log: DriveLog, mask=None) -> dict:
         out["max_vy"] = max_abs(c["vy_mps"], log.vy, m)
         b_ref = np.arctan2(log.vy, log.vx)
         b_est = c.get("beta_rad", np.arctan2(c["vy_mps"], log.vx))
-        out["rmse_beta"] = rmse(b_est, b_ref, m)
-        out["max_beta"] = max_abs(b_est, b_ref, m)
+        mb = m & (log.vx >= segments.V_LOW)   # sideslip undefined at standstill
+        if mb.any():
+            out["rmse_beta"] = rmse(b_est, b_ref, mb)
+            out["max_beta"] = max_abs(b_est, b_ref, mb)
     r_ref = log.extra.get("yaw_rate_true_radps", log.yaw_rate)
     if "yaw_rate_radps" in c:
         out["rmse_r"] = rmse(c["yaw_rate_radps"], r_ref, m)

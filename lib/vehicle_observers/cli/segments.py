@@ -18,7 +18,7 @@ slip at low speed; Rajamani, *Vehicle Dynamics and Control*, eq. (2.29)):
 
 axle forces from the steady turn ``F_f = m v_x r a_r / L``, ``F_r = m v_x r a_f / L``; the
 ``v_y`` standard deviation there is ``|v_x| tan(BETA_KIN_STD)`` and interval observers get
-``v_y`` within ``+- |v_x| tan(slip_max)`` of the kinematic value (``uncertainty.slip_max_deg``,
+``v_y`` within ``+- (|v_x| tan(slip_max) + 0.01 m/s)`` of the kinematic value (``uncertainty.slip_max_deg``,
 default 8 deg: an assumed bound, not the paper's guarantee). These rows have ``low_speed = 1``
 in the output; the first row after a gap has ``reinit = 1``.
 """
@@ -37,6 +37,8 @@ MAX_GAP_S = 0.5
 MIN_RUN = 3
 #: sideslip standard deviation of the kinematic model [rad]
 BETA_KIN_STD = 0.02
+#: floor of the kinematic v_y half-width [m/s] (the bound is not zero at standstill)
+KIN_VY_FLOOR = 0.01
 #: RK4 stability bound used for ``h |lambda|`` (the exact real-axis bound is 2.785)
 RK4_BOUND = 2.5
 
@@ -99,7 +101,7 @@ def kinematic(log: DriveLog, vehicle, rows) -> dict:
     beta = np.arctan(p.a_r * np.tan(log.delta[rows]) / L)
     vy = vx * np.tan(beta)
     slip = np.radians(vehicle.uncertainty.get("slip_max_deg", 8.0))
-    half = np.abs(vx) * np.tan(slip)
+    half = np.abs(vx) * np.tan(slip) + KIN_VY_FLOOR
     return {"vy_mps": vy, "beta_rad": beta, "yaw_rate_radps": r,
             "Ff_N": p.m * vx * r * p.a_r / L, "Fr_N": p.m * vx * r * p.a_f / L,
             "vy_std_mps": np.abs(vx) * np.tan(BETA_KIN_STD),

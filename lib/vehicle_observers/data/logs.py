@@ -30,6 +30,7 @@ import csv
 import gzip
 import io
 import os
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -141,6 +142,10 @@ def remove_stale_partials(path) -> list[Path]:
     return gone
 
 
+#: partial files being written by this process (removed by the command line on SIGTERM)
+ACTIVE_PARTIALS: set = set()
+
+
 class AtomicOutput:
     """An output CSV written completely or not at all.
 
@@ -160,16 +165,19 @@ class AtomicOutput:
         remove_stale_partials(self.path)
         fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
         os.close(fd)
+        ACTIVE_PARTIALS.add(self.tmp)
         return self
 
     def commit(self, columns: dict, progress=None):
         _write_arrow(self.tmp, columns, progress)
         os.replace(self.tmp, self.path)
+        ACTIVE_PARTIALS.discard(self.tmp)
         self.done = True
 
     def __exit__(self, *exc):
         if not self.done:
             self.tmp.unlink(missing_ok=True)
+        ACTIVE_PARTIALS.discard(self.tmp)
         return False
 
 
@@ -190,8 +198,10 @@ def _write_arrow(path, columns: dict, progress=None):
         if a.shape != (n,):
             raise ValueError(f"column {c!r} has shape {a.shape}, expected ({n},)")
     schema = pa.schema([(c, pa.from_numpy_dtype(a.dtype)) for c, a in zip(names, arrs)])
-    with pacsv.CSVWriter(str(path), schema,
-                         write_options=pacsv.WriteOptions(quoting_style="none")) as w:
+    with open(path, "wb") as fh:   # plain header line (pyarrow would quote the names)
+        fh.write((",".join(names) + "\n").encode())
+    opts = pacsv.WriteOptions(include_header=False, quoting_style="none")
+    with open(path, "ab") as fh, pacsv.CSVWriter(fh, schema, write_options=opts) as w:
         for a in range(0, max(n, 1), WRITE_BATCH):
             b = min(n, a + WRITE_BATCH)
             w.write_batch(pa.record_batch([pa.array(x[a:b]) for x in arrs], schema=schema))
@@ -251,37 +261,92 @@ def _diagnose(path: Path, name: str, header: list[str]):
         raise LogFormatError(f"{name}: cannot read ({exc}; truncated or corrupt file?)") from None
 
 
+class _Guard(io.RawIOBase):
+    """Binary reader handed to pyarrow: decompresses ``.gz``, reports ``progress(bytes of the
+    file read, file size)``, and stops at the first line longer than :data:`MAX_FIELD`
+    (``long_line`` = its line number) or at a read error (``error``)."""
+
+    def __init__(self, path: Path, progress=None):
+        self.raw = open(path, "rb")
+        self.fh = gzip.GzipFile(fileobj=self.raw) if path.suffix == ".gz" else self.raw
+        self.size = max(path.stat().st_size, 1)
+        self.progress = progress
+        self.lines = 0        # newlines seen
+        self.run = 0          # length of the current (unfinished) line
+        self.long_line = None
+        self.error = None
+
+    def readable(self):
+        return True
+
+    def read(self, n=-1):
+        if self.long_line is not None or self.error is not None:
+            return b""
+        try:
+            b = self.fh.read(n)
+        except (OSError, EOFError, zlib.error) as exc:
+            self.error = exc
+            return b""
+        self._check(b)
+        if self.progress is not None:
+            self.progress(min(self.raw.tell(), self.size), self.size)
+        return b if self.long_line is None else b""
+
+    def _check(self, b):
+        nl = np.flatnonzero(np.frombuffer(b, np.uint8) == 10)
+        if not len(nl):
+            self.run += len(b)
+            if self.run > MAX_FIELD:
+                self.long_line = self.lines + 1
+            return
+        lengths = np.r_[self.run + nl[0], np.diff(nl) - 1]
+        if lengths.max() > MAX_FIELD:
+            self.long_line = self.lines + 1 + int(np.argmax(lengths > MAX_FIELD))
+        self.lines += len(nl)
+        self.run = len(b) - 1 - int(nl[-1])
+        if self.run > MAX_FIELD and self.long_line is None:
+            self.long_line = self.lines + 1
+
+    def close(self):
+        self.fh.close()
+        self.raw.close()
+        super().close()
+
+
 def _read_columns(path: Path, name: str, header: list[str], keep: list[str], progress=None):
     """Numeric columns ``keep`` of the CSV with pyarrow's streaming reader. Returns
     ``{column: float64 array}`` with NaN for empty / null fields."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    size = max(path.stat().st_size, 1)
-    raw = pa.OSFile(str(path))
-    stream = pa.CompressedInputStream(raw, "gzip") if path.suffix == ".gz" else raw
+    guard = _Guard(path, progress)
     ropt = pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=1 << 22,
                              use_threads=True)
     copt = pacsv.ConvertOptions(column_types={c: pa.float64() for c in header},
                                 include_columns=keep, strings_can_be_null=False)
     chunks = {c: [] for c in keep}
     try:
-        with pacsv.open_csv(stream, read_options=ropt, convert_options=copt,
+        with pacsv.open_csv(pa.PythonFile(guard, mode="r"), read_options=ropt,
+                            convert_options=copt,
                             parse_options=pacsv.ParseOptions(newlines_in_values=False)) as rd:
             for batch in rd:
                 for c in keep:
                     chunks[c].append(batch.column(c))
-                if progress is not None:
-                    progress(min(raw.tell(), size), size)
     except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError):
-        raw.close()
-        _diagnose(path, name, header)
-        raise LogFormatError(f"{name}: not a numeric CSV table (the fast reader rejected it)") \
-            from None
-    except (OSError, EOFError) as exc:
-        raw.close()
-        raise LogFormatError(f"{name}: cannot read ({exc}; truncated or corrupt file?)") from None
-    raw.close()
+        if guard.long_line is None and guard.error is None:
+            guard.close()
+            _diagnose(path, name, header)
+            raise LogFormatError(f"{name}: not a numeric CSV table (the fast reader rejected "
+                                 "it)") from None
+    except OSError as exc:
+        guard.error = guard.error or exc
+    guard.close()
+    if guard.long_line is not None:
+        raise LogFormatError(f"{name}: line {guard.long_line} is longer than {MAX_FIELD} "
+                             "characters (expected one row of numbers per line)")
+    if guard.error is not None:
+        raise LogFormatError(f"{name}: cannot read ({guard.error}; truncated or corrupt "
+                             "file?)")
     out = {}
     for c in keep:
         parts = chunks.pop(c)
@@ -327,9 +392,9 @@ def load_log(path, min_vx: float | None = 0.0, required=REQUIRED, columns=None,
         bad = ~np.isfinite(col[c])
         if bad.any():
             i = int(np.argmax(bad))
-            raise LogFormatError(f"{name}: column {c!r} has {int(bad.sum())} NaN/inf/empty "
-                                 f"value(s), first at row {i} (line {i + 2}); expected finite "
-                                 f"numbers")
+            raise LogFormatError(f"{name}: column {c!r} has {int(bad.sum())} NaN/inf value(s), "
+                                 f"first at row {i} (line {i + 2}); expected finite numbers "
+                                 f"(an empty field counts as NaN)")
     t = col.get("t_s")
     if t is not None:
         d = np.diff(t)
