@@ -49,6 +49,13 @@ def emulate(T=60.0, fs=100.0, seed=0, profile=speed_profile, noise_scale=1.0) ->
     return log
 
 
+def take(log: DriveLog, idx) -> DriveLog:
+    """The rows ``idx`` (index or bool array) of the schema channels of ``log``."""
+    kw = {a: (None if getattr(log, a) is None else getattr(log, a)[idx]) for a in
+          ("t", "vx", "delta", "yaw_rate", "ay", "vy", "yL", "psiL", "Ff", "Fr", "rho")}
+    return DriveLog(**kw, source=log.source)
+
+
 def save(log: DriveLog, path, columns=USER_COLUMNS, edit=None):
     """Write the user columns of ``log``; ``edit(cols)`` may change them first."""
     cols = {c: log.columns()[c].copy() for c in columns}

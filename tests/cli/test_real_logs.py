@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import KALMAN, emulate, save, speed_profile
+from conftest import KALMAN, emulate, save, speed_profile, take
 from vehicle_observers.cli import registry as RG
 from vehicle_observers.cli import segments as SG
 from vehicle_observers.cli.main import EXIT_INPUT, CLIError, _check_output, main
@@ -446,9 +446,7 @@ def test_time_gaps_reinitialise_and_are_marked(capsys, tmp_path, stopgo, car, ga
             c[k] = c[k][keep]
         c["t_s"] = np.where(c["t_s"] >= 20.0, c["t_s"] - 5.0 + gap_s, c["t_s"])
     p = save(stopgo, tmp_path / "gap.csv", edit=gap)
-    sub = stopgo.segment(0, 100)
-    for a in ("t", "vx", "delta", "yaw_rate", "ay", "vy"):
-        setattr(sub, a, getattr(stopgo, a)[keep])
+    sub = take(stopgo, keep)
     for observer, tol in (("ekf", 0.15), ("interval-ifqir2017", 0.6)):
         code, out, err, est_path = estimate(capsys, p, car["path"], observer)
         assert code == 0, err
@@ -469,9 +467,7 @@ def test_jitter_uses_real_timestamps(capsys, tmp_path, car):
     idx = np.arange(5, len(fine) - 5, 10) + rng.integers(-3, 4, size=(len(fine) - 10) // 10)
     p = save(fine, tmp_path / "jitter.csv", edit=lambda c: [c.__setitem__(k, v[idx])
                                                             for k, v in list(c.items())])
-    truth = fine.segment(0, 100)
-    for a in ("t", "vx", "delta", "yaw_rate", "ay", "vy"):
-        setattr(truth, a, getattr(fine, a)[idx])
+    truth = take(fine, idx)
     for observer, tol in (("ekf", 0.15), ("interval-ifqir2017", 0.6)):
         code, _, err, est_path = estimate(capsys, p, car["path"], observer)
         assert code == 0, err
@@ -511,9 +507,7 @@ def test_sampling_rates(capsys, tmp_path, car, fs, every, tol):
     idx = np.arange(0, len(fine), every)
     p = save(fine, tmp_path / "rate.csv", edit=lambda c: [c.__setitem__(k, v[idx])
                                                           for k, v in list(c.items())])
-    truth = fine.segment(0, T)
-    for a in ("t", "vx", "delta", "yaw_rate", "ay", "vy"):
-        setattr(truth, a, getattr(fine, a)[idx])
+    truth = take(fine, idx)
     code, _, err, est_path = estimate(capsys, p, car["path"], "ekf")
     assert code == 0, err
     est = read_est(est_path)

@@ -4,7 +4,10 @@ Each :class:`ObserverSpec` says what the observer needs (log columns, vehicle-fi
 whether it is causal and whether it gives intervals, and has ``run(log, vehicle, **opts)``
 returning :class:`Estimates` (time plus columns with units in their names, the same names
 as the log schema: ``vy_mps``, ``yaw_rate_radps``, ``Ff_N``, ``Fr_N``, ``beta_rad``;
-interval observers add ``<name>_lo``/``<name>_hi`` pairs, e.g. ``vy_lo_mps``).
+interval observers add ``<name>_lo``/``<name>_hi`` pairs, e.g. ``vy_lo_mps``), plus the
+row flags ``low_speed`` and ``reinit`` of :mod:`vehicle_observers.cli.segments` (each
+observer runs on the stretches in motion between gaps; the other rows get the kinematic
+low-speed model).
 
 Adapters for observers written elsewhere in the package are registered only if their
 module imports (see :func:`available`), so a missing module never breaks the CLI.

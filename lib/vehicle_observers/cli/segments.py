@@ -127,6 +127,9 @@ def run_stretches(run, log: DriveLog, vehicle, ok, max_gap=MAX_GAP_S, progress=N
         c, s = run(view(log, a, b), a)
         sec += s
         for k, v in c.items():
+            if (a, b) == (0, N):
+                cols[k] = v         # one stretch over the whole log: no copy (large logs)
+                continue
             if k not in cols:
                 cols[k] = np.zeros(N)
             cols[k][a:b] = v
