@@ -107,7 +107,7 @@ def available() -> dict[str, ObserverSpec]:
 MIN_TUNE_ROWS = 50
 #: the ML tuning runs on the window thinned to at most this rate [Hz] (:func:`kalman.tune`:
 #: thinning keeps the per-sample measurement variance and q is per second)
-TUNE_RATE_HZ = 25.0
+TUNE_RATE_HZ = 100.0
 
 
 def tuning_window(log: DriveLog, vehicle: Vehicle, window_s=TUNE_WINDOW_S,
@@ -206,10 +206,12 @@ def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:
                                  vehicle.params.as_array(), tuning.theta(), inp.x0,
                                  kalman._p0(tuning.P0, inp), False)
     sec = time.perf_counter() - t0
+    std = np.sqrt(np.maximum(Pfd[:, 0], 0.0))
+    del Pfd                                  # (N, 3): freed before the forces are computed
     Ff, Fr = kalman._forces(Xf, inp, vehicle.params)
     cols = {"vy_mps": Xf[:, 0], "yaw_rate_radps": Xf[:, 1],
             "beta_rad": np.arctan2(Xf[:, 0], log.vx), "Ff_N": Ff, "Fr_N": Fr,
-            "vy_std_mps": np.sqrt(np.maximum(Pfd[:, 0], 0.0))}
+            "vy_std_mps": std}
     if inp.use_ay:
         cols["ay_bias_mps2"] = Xf[:, 2]
     return cols, sec

@@ -107,7 +107,7 @@ class DriveLog:
 
 
 #: rows per batch when writing (the progress callback is called after each)
-WRITE_BATCH = 1 << 20
+WRITE_BATCH = 1 << 18
 #: longest field accepted in a log [characters] (a longer one is not a number of a log)
 MAX_FIELD = 128 * 1024
 
@@ -183,8 +183,8 @@ class AtomicOutput:
 
 def _write_arrow(path, columns: dict, progress=None):
     """CSV with pyarrow's writer (header line, comma separated, shortest round-trip floats;
-    integer / boolean columns as integers), in batches of :data:`WRITE_BATCH` rows with
-    ``progress(rows_written, rows)`` after each."""
+    integer / boolean columns as integers), streamed in batches of :data:`WRITE_BATCH` rows
+    with ``progress(rows_written, rows)`` after each."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
@@ -313,25 +313,59 @@ class _Guard(io.RawIOBase):
         super().close()
 
 
+#: bytes per block of the CSV reader
+BLOCK = 1 << 22
+
+
+def _text_size(path: Path) -> int:
+    """Bytes of CSV text: the file size, or for ``.gz`` the size stored in its trailer (the
+    uncompressed size modulo 2^32; the compressed size when that is smaller)."""
+    size = path.stat().st_size
+    if path.suffix != ".gz" or size < 18:
+        return size
+    with open(path, "rb") as fh:
+        fh.seek(-4, os.SEEK_END)
+        isize = int.from_bytes(fh.read(4), "little")
+    return max(isize, size)
+
+
+def _grown(a: np.ndarray, n: int, cap: int) -> np.ndarray:
+    """A (cap,) float array holding the first ``n`` values of ``a``."""
+    out = np.empty(cap)
+    out[:n] = a[:n]
+    return out
+
+
 def _read_columns(path: Path, name: str, header: list[str], keep: list[str], progress=None):
-    """Numeric columns ``keep`` of the CSV with pyarrow's streaming reader. Returns
-    ``{column: float64 array}`` with NaN for empty / null fields."""
+    """Numeric columns ``keep`` of the CSV with pyarrow's streaming reader, each batch copied
+    at once into float64 arrays sized from the bytes read so far (peak memory: the arrays plus
+    a few blocks). Returns ``{column: (N,) array}`` with NaN for empty / null fields."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
     guard = _Guard(path, progress)
-    ropt = pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=1 << 22,
+    total = _text_size(path)
+    ropt = pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=BLOCK,
                              use_threads=True)
     copt = pacsv.ConvertOptions(column_types={c: pa.float64() for c in header},
                                 include_columns=keep, strings_can_be_null=False)
-    chunks = {c: [] for c in keep}
+    buf = {c: np.empty(0) for c in keep}
+    n = 0
     try:
         with pacsv.open_csv(pa.PythonFile(guard, mode="r"), read_options=ropt,
                             convert_options=copt,
                             parse_options=pacsv.ParseOptions(newlines_in_values=False)) as rd:
             for batch in rd:
+                m = batch.num_rows
+                if n + m > len(buf[keep[0]]):
+                    # first batch ~ one block: rows of the whole text projected (+2 %)
+                    cap = (int(m * total / BLOCK * 1.02) + 1 if n == 0
+                           else int(1.25 * len(buf[keep[0]])))
+                    buf = {c: _grown(v, n, max(cap, n + m)) for c, v in buf.items()}
                 for c in keep:
-                    chunks[c].append(batch.column(c))
+                    buf[c][n:n + m] = batch.column(c).to_numpy(zero_copy_only=False)
+                n += m
+                del batch
     except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError):
         if guard.long_line is None and guard.error is None:
             guard.close()
@@ -347,12 +381,8 @@ def _read_columns(path: Path, name: str, header: list[str], keep: list[str], pro
     if guard.error is not None:
         raise LogFormatError(f"{name}: cannot read ({guard.error}; truncated or corrupt "
                              "file?)")
-    out = {}
-    for c in keep:
-        parts = chunks.pop(c)
-        out[c] = (np.concatenate([p.to_numpy(zero_copy_only=False) for p in parts])
-                  if parts else np.empty(0))
-        del parts
+    out = {c: v[:n] for c, v in buf.items()}
+    pa.default_memory_pool().release_unused()   # hand the freed Arrow blocks back to the OS
     return out
 
 
