@@ -285,6 +285,9 @@ def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
     ``worst=None`` and ``t = nan`` instead of raising.
     """
     nr = ts.n_rules
+    unknown = {"t": float("nan"), "worst": None, "largest_eig": float("nan")}
+    if not all(np.all(np.isfinite(ts.A[i])) for i in range(nr)):
+        return unknown                        # NaN/inf model: nothing to diagnose
     S = np.diag(np.asarray(scale, dtype=float))
     Si = np.linalg.inv(S)
     As = [Si @ ts.A[i] @ S for i in range(nr)]
@@ -305,9 +308,8 @@ def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
             D = disk(disk_radius).lmi(P, P @ As[i] - M[i] @ Cs)
             mats[f"disk[{i + 1}]"] = (D, i, "disk")
             cons.append((D + D.T) / 2 << t * np.eye(8))
-    unknown = {"t": float("nan"), "worst": None, "largest_eig": float("nan")}
     if not all(np.all(np.isfinite(a)) for a in (*As, Cs, Gs)):
-        return unknown                        # NaN/inf model: nothing to diagnose
+        return unknown
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)   # "solution may be inaccurate": a
