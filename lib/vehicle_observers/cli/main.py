@@ -219,7 +219,7 @@ def cmd_estimate(args, out=None):
             spec.check(log, vehicle)
             bar.stage(10, "design / tuning")
             est = spec.run(log, vehicle, window_s=args.tune_window, progress=bar.observer,
-                           max_gap=args.max_gap)
+                           max_gap=args.max_gap, cache=True)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
             bar.stage(85, "writing")
@@ -264,7 +264,7 @@ def cmd_tune(args, out=None):
     vehicle = load_vehicle(args.vehicle)
     log = _load(args, vehicle, ("ay_mps2",))
     tun, _ = kalman_tuning(log, dataclasses.replace(vehicle, kalman=None),
-                           window_s=args.tune_window, max_gap=args.max_gap)
+                           window_s=args.tune_window, max_gap=args.max_gap, cache=True)
     print(f"# {tun.source}", file=out)
     print("[kalman]", file=out)
     for k in ("q_vy", "q_r", "q_b", "R_r", "R_ay"):

@@ -134,22 +134,24 @@ def tuning_window(log: DriveLog, vehicle: Vehicle, window_s=TUNE_WINDOW_S,
 
 def kalman_tuning(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WINDOW_S,
                   progress=None, maxiter: int = 300, max_gap=segments.MAX_GAP_S,
-                  rate_hz=TUNE_RATE_HZ):
+                  rate_hz=TUNE_RATE_HZ, cache: bool = False):
     """The noise tuning used by the Kalman observers: ``tuning`` if given, else the vehicle
     file's ``[kalman]`` table, else ML (:func:`kalman.tune`) on :func:`tuning_window`
-    thinned to at most ``rate_hz``. Returns ``(tuning, seconds)``."""
+    thinned to at most ``rate_hz``. ``cache=True`` (the command line) reads / stores the ML
+    result in :func:`cache_dir`. Returns ``(tuning, seconds)``."""
     if tuning is not None:
         return tuning, 0.0
     if vehicle.kalman is not None:
         return vehicle.kalman, 0.0
     t0 = time.perf_counter()
     win = tuning_window(log, vehicle, window_s, max_gap)
-    key = _tuning_key(win, vehicle, maxiter, rate_hz)
-    tun = _cache_get(key)
+    key = _tuning_key(win, vehicle, maxiter, rate_hz) if cache else None
+    tun = _cache_get(key) if cache else None
     if tun is None:
         tun = kalman.tune(win, vehicle.params, progress=progress, maxiter=maxiter,
                           max_rate_hz=rate_hz)
-        _cache_put(key, tun)
+        if cache:
+            _cache_put(key, tun)
     return tun, time.perf_counter() - t0
 
 
@@ -166,8 +168,8 @@ def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
     """SHA-256 of everything the ML tuning reads: the window's measured channels, the vehicle
     constants, the options and the source of :mod:`baselines.kalman` (a changed tuning
     never reuses an old entry)."""
-    h = hashlib.sha256()
-    for a in (win.t, win.vx, win.delta, win.yaw_rate, win.ay):
+    h = hashlib.sha256()      # time enters through its differences only (shift-invariant)
+    for a in (win.t - win.t[0], win.vx, win.delta, win.yaw_rate, win.ay):
         h.update(b"-" if a is None else np.ascontiguousarray(a, float).tobytes())
     h.update(repr((vehicle.params.as_array().tolist(), maxiter, rate_hz)).encode())
     h.update(Path(kalman.__file__).read_bytes())
@@ -228,9 +230,10 @@ def _kalman_columns(res: kalman.KalmanResult, log: DriveLog) -> dict:
 
 def _kalman_runner(fn, name, causal=True):
     def run(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WINDOW_S,
-            progress=None, max_gap=segments.MAX_GAP_S, **_):
+            progress=None, max_gap=segments.MAX_GAP_S, cache=False, **_):
         tprog = None if progress is None else (lambda i, n: progress(i, n, "tuning"))
-        tun, tsec = kalman_tuning(log, vehicle, tuning, window_s, tprog, max_gap=max_gap)
+        tun, tsec = kalman_tuning(log, vehicle, tuning, window_s, tprog, max_gap=max_gap,
+                                  cache=cache)
         slow = fn in (kalman.ekf_filterpy, kalman.ukf_filterpy)
         N = len(log)
 
