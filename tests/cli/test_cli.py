@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 from vehicle_observers.baselines import kalman as K
+from vehicle_observers.cli import registry as RG
 from vehicle_observers.cli.main import EXIT_INPUT, main
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import load_log, load_revs
@@ -190,16 +191,21 @@ def test_error_output_path_and_existing_file_untouched(capsys, files):
     assert_one_line_error(code, err, "is a directory")
 
 
-def test_error_nonpositive_speed_and_usage(capsys, files):
+def test_zero_speed_row_is_estimated_by_the_low_speed_model_and_usage(capsys, files):
     text = files["log"].read_text().splitlines()
     header = text[0].split(",")
     row = text[3].split(",")
     row[header.index("vx_mps")] = "0"
-    bad = files["dir"] / "stop.csv"
-    bad.write_text("\n".join(text[:3] + [",".join(row)] + text[4:]) + "\n")
-    code, _, err = run_cli(capsys, "estimate", bad, "--vehicle", files["veh"], "--observer",
-                           "ekf", "--out", files["dir"] / "never.csv")
-    assert_one_line_error(code, err, "'vx_mps' must be > 0", "row 2")
+    stop = files["dir"] / "stop.csv"
+    stop.write_text("\n".join(text[:3] + [",".join(row)] + text[4:]) + "\n")
+    out = files["dir"] / "stop_est.csv"
+    code, _, err = run_cli(capsys, "estimate", stop, "--vehicle", files["veh"], "--observer",
+                           "ekf", "--out", out)
+    assert code == 0, err
+    est = load_log(out, required=("t_s", "low_speed"), min_vx=None)
+    # row 2 alone is slow; rows 0-1 form a stretch shorter than MIN_RUN: kinematic as well
+    assert np.flatnonzero(est.extra["low_speed"]).tolist() == [0, 1, 2]
+    assert np.isfinite(est.vy).all()
     code, _, err = run_cli(capsys, "estimate", files["log"], "--observer", "ekf")
     assert code == EXIT_INPUT and "Traceback" not in err and "--vehicle" in err
 
@@ -213,8 +219,9 @@ def test_tune_prints_a_kalman_table_that_the_loader_accepts(capsys, files):
     veh.write_text(files["base"] + "\n" + out)
     v = load_vehicle(veh)
     seg = load_log(files["log"]).segment(300.0, 310.0)
-    ref = K.tune(seg, load_vehicle("revs250lm").params)
-    # the printed table (6 significant digits) is the library's tuning of that window
+    ref = K.tune(seg, load_vehicle("revs250lm").params, max_rate_hz=RG.TUNE_RATE_HZ)
+    # the printed table (6 significant digits) is the library's tuning of that window, thinned
+    # to the command line's tuning rate
     assert np.allclose(v.kalman.theta(), ref.theta(), rtol=1e-5)
     code, _, err = run_cli(capsys, "tune", files["log"], "--vehicle", "nonexistent.toml")
     assert_one_line_error(code, err, "nonexistent.toml")

@@ -101,4 +101,87 @@ def test_write_csv_is_atomic_on_failure(tmp_path):
     out = tmp_path / "est.csv"
     with pytest.raises(ValueError):
         write_csv(out, {"a": np.arange(3), "b": np.arange(4)})
-    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+    assert not out.exists() and not list(tmp_path.iterdir())   # no partial file left
+
+
+def _long_log(tmp_path, n=30000):
+    t = np.arange(n) * 0.01
+    cols = {"t_s": t, "vx_mps": 20 + np.sin(t), "delta_roadwheel_rad": 0.01 * np.cos(t),
+            "yaw_rate_radps": 0.02 * np.sin(0.3 * t)}
+    p = tmp_path / "long.csv"
+    write_csv(p, cols)
+    return p, cols
+
+
+def test_progress_moves_while_loading_and_writing(tmp_path, monkeypatch):
+    import vehicle_observers.data.logs as L
+
+    monkeypatch.setattr(L, "WRITE_BATCH", 7000)
+    seen = []
+    p, cols = _long_log(tmp_path)
+    write_csv(p, cols, progress=lambda k, n: seen.append((k, n)))
+    assert seen == [(7000, 30000), (14000, 30000), (21000, 30000), (28000, 30000),
+                    (30000, 30000)]
+    gz = tmp_path / "long.csv.gz"
+    gz.write_bytes(gzip.compress(p.read_bytes()))
+    for f in (p, gz):
+        read = []
+        log = load_log(f, progress=lambda k, n: read.append((k, n)))
+        assert read[-1][0] == read[-1][1] == f.stat().st_size          # ends at the file size
+        assert all(a[0] <= b[0] for a, b in zip(read, read[1:]))       # never goes back
+        np.testing.assert_array_equal(log.t, cols["t_s"])               # shortest round trip
+        np.testing.assert_array_equal(log.delta, cols["delta_roadwheel_rad"])
+
+
+def test_only_requested_columns_are_kept(tmp_path):
+    p, _ = _long_log(tmp_path, 50)
+    log = load_log(p, columns=("t_s",))
+    assert log.delta is not None and log.extra == {}        # required ones always
+    with pytest.raises(LogFormatError, match="long.csv: line 3 is longer than 131072"):
+        p.write_text(p.read_text().replace("\n0.01,", "\n0.01" + "0" * 140_000 + ",", 1))
+        load_log(p)
+
+
+def test_atomic_output_partial_file_lifecycle(tmp_path):
+    import os
+
+    from vehicle_observers.data.logs import ACTIVE_PARTIALS, AtomicOutput, partial_path, remove_stale_partials
+
+    out = tmp_path / "est.csv"
+    dead = out.with_name("est.csv.partial-999999999")     # no such process
+    dead.write_text("left by a killed run")
+    alive = out.with_name(f"est.csv.partial-{os.getppid()}")   # a running process
+    alive.write_text("being written")
+    with AtomicOutput(out) as sink:
+        assert not dead.exists() and alive.exists()
+        assert partial_path(out).exists() and partial_path(out) in ACTIVE_PARTIALS
+    assert not partial_path(out).exists() and not out.exists()   # no commit: removed
+    with pytest.raises(RuntimeError):
+        with AtomicOutput(out):
+            raise RuntimeError("failure while computing")
+    assert not partial_path(out).exists() and not ACTIVE_PARTIALS
+    with AtomicOutput(out) as sink:
+        sink.commit({"a": np.arange(3.0)})
+    assert out.read_text() == "a\n0\n1\n2\n" and remove_stale_partials(out) == []
+    del sink
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda c: c.__setitem__("delta_roadwheel_rad", np.degrees(c["delta_roadwheel_rad"]) * 50),
+     "'delta_roadwheel_rad' .* degrees"),
+    (lambda c: c.__setitem__("yaw_rate_radps", np.degrees(c["yaw_rate_radps"]) * 5),
+     "'yaw_rate_radps' .* deg/s"),
+    (lambda c: c.__setitem__("vx_mps", c["vx_mps"] * 5), "'vx_mps' .* km/h"),
+    (lambda c: c.__setitem__("t_s", c["t_s"] * 1000), "'t_s' .* milliseconds"),
+    (lambda c: c.__setitem__("t_s", c["t_s"] * 1e-3), "'t_s' .* 10 kHz"),
+])
+def test_plausibility_names_column_and_unit(tmp_path, edit, message):
+    from vehicle_observers.data.logs import check_plausible
+
+    p, cols = _long_log(tmp_path, 500)
+    edit(cols)
+    write_csv(p, cols)
+    log = load_log(p)
+    with pytest.raises(LogFormatError, match=message):
+        check_plausible(log)
+    check_plausible(log, accept=True)          # accepted on request

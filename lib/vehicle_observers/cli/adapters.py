@@ -27,10 +27,14 @@ actuator/sensor fault, a different problem from estimating ``v_y`` on a variable
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
+from vehicle_observers.cli import segments
 from vehicle_observers.cli.registry import Estimates, ObserverSpec, register
+from vehicle_observers.core.errors import LogFormatError
+from vehicle_observers.models.vehicle import VehicleFileError
 
 VEHICLE_KEYS = ("m", "I_z", "a_f", "a_r", "tire_front", "tire_rear")
 
@@ -41,16 +45,16 @@ def _noise_std(x):
 
 
 # ------------------------------------------------------------------ Yacine 2015 TS -------
-try:
-    from vehicle_observers.models.lateral import yacine_ts as _yacine_ts
-    from vehicle_observers.observers import ts_premise as _to
-except ImportError:  # pragma: no cover - module not there
-    _to = None
+# The observer modules import cvxpy (~1 s): they are imported when an observer runs, not
+# when the registry is listed, so ``estimate --observer ekf`` does not pay for them.
 
 
 def ts_design(vehicle):
     """Theorem 1 design for ``vehicle`` (cached per vehicle). Returns (design, seconds of
     the LMI solve; the first solve's time is returned for cached designs)."""
+    from vehicle_observers.models.lateral import yacine_ts as _yacine_ts
+    from vehicle_observers.observers import ts_premise as _to
+
     key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())))
     if key in _TS_CACHE:
         return _TS_CACHE[key]
@@ -70,34 +74,62 @@ def ts_design(vehicle):
 _TS_CACHE: dict = {}
 
 
-def _run_ts(log, vehicle, **_):
+def _run_ts(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+    from vehicle_observers.models.tires import Pacejka
+
+    for axle, tyre in (("tire_front", vehicle.params.tire_f), ("tire_rear", vehicle.params.tire_r)):
+        if not isinstance(tyre, Pacejka):
+            raise VehicleFileError(f"{Path(vehicle.path).name or vehicle.name}: "
+                                   f"'{axle}.model' = \"linear\" gives one stiffness, no TS "
+                                   "sectors; observer 'ts-yacine2015' needs Pacejka tyres")
+    from vehicle_observers.observers import ts_premise as _to
+
     des, sec = ts_design(vehicle)
-    t0 = time.perf_counter()
-    run = _to.run_observer(log, des, params=vehicle.params)
-    wall = time.perf_counter() - t0
-    cols = {"vy_mps": run.vy, "yaw_rate_radps": run.x[:, 1],
-            "beta_rad": np.arctan2(run.vy, log.vx), "Ff_N": run.Ff, "Fr_N": run.Fr}
+    info = {"clipped": 0}
+
+    def one(sub, a):
+        _regular(sub, "ts-yacine2015")
+        t0 = time.perf_counter()
+        run = _to.run_observer(sub, des, params=vehicle.params)
+        wall = time.perf_counter() - t0
+        info["clipped"] += int(run.clipped.any(axis=1).sum())
+        return ({"vy_mps": run.vy, "yaw_rate_radps": run.x[:, 1],
+                 "beta_rad": np.arctan2(run.vy, sub.vx), "Ff_N": run.Ff, "Fr_N": run.Fr}, wall)
+
+    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "Ff_N", "Fr_N")
+    cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
+                                           max_gap, progress)
     return Estimates("ts-yacine2015", log.t, cols, wall, sec, True,
-                     {"clipped_share": float(run.clipped.any(axis=1).mean()),
+                     {"clipped_share": info["clipped"] / len(log), "stretches": n,
                       "lmi_margin": des.margins()["xi_original_min_margin"],
                       "note": "wall time includes the vision-chain differentiators"})
 
 
-if _to is not None:
-    register(ObserverSpec(
-        "ts-yacine2015",
-        "Yacine 2015 TS observer (31), Theorem 1 LMI (33), premise v_y from vision (26)",
-        _run_ts, columns=("yL_m", "psiL_rad"),
-        vehicle_keys=VEHICLE_KEYS + ("l_s", "uncertainty.vx_min", "uncertainty.vx_max",
-                                     "uncertainty.slip_max_deg"),
-        paper="Yacine 2015"))
+#: largest relative spread of the sampling interval the fixed-step observers accept
+DT_RTOL = 1e-3
+
+
+def _regular(log, name):
+    """Raise LogFormatError unless ``log`` is sampled at one period (within DT_RTOL)."""
+    d = np.diff(log.t)
+    if len(d) and (d.max() - d.min()) > DT_RTOL * np.median(d):
+        k = int(np.argmax(np.abs(d - np.median(d))))
+        raise LogFormatError(f"{log.source}: column 't_s' is irregular (step {d[k]:.6g} s at "
+                             f"row {k + 1} vs median {np.median(d):.6g} s); observer {name!r} "
+                             f"needs a fixed sampling period (resample the log, or use 'ekf' / "
+                             f"'interval-ifqir2017', which use the real timestamps)")
+
+
+register(ObserverSpec(
+    "ts-yacine2015",
+    "Yacine 2015 TS observer (31), Theorem 1 LMI (33), premise v_y from vision (26)",
+    _run_ts, columns=("yL_m", "psiL_rad"),
+    vehicle_keys=VEHICLE_KEYS + ("l_s", "uncertainty.vx_min", "uncertainty.vx_max",
+                                 "uncertainty.slip_max_deg"),
+    paper="Yacine 2015"))
 
 
 # ------------------------------------------------------------------ Ifqir 2017 interval --
-try:
-    from vehicle_observers.observers import interval as _iv
-except ImportError:  # pragma: no cover
-    _iv = None
 
 ACCEL_MAX = 12.0  # m/s^2
 _IV_CACHE: dict = {}
@@ -105,6 +137,8 @@ _IV_CACHE: dict = {}
 
 def interval_design(vehicle, dt: float):
     """Theorem 2 design for ``vehicle`` at sample period ``dt``. Returns (design, seconds)."""
+    from vehicle_observers.observers import interval as _iv
+
     key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())), round(dt, 9))
     if key in _IV_CACHE:
         return _IV_CACHE[key]
@@ -123,34 +157,74 @@ def interval_design(vehicle, dt: float):
     return des, sec
 
 
-def _run_interval(log, vehicle, **_):
+def dt_runs(t, rtol=DT_RTOL):
+    """Runs of sample steps with one period: ``[(a, b, dt), ...]`` covering samples ``a..b``
+    (inclusive; consecutive runs share a sample), ``dt`` the mean step of the run. Steps
+    within ``rtol`` (relative) of each other share a run (quantised on a log grid)."""
+    d = np.diff(np.asarray(t, float))
+    if not len(d):
+        return [(0, 0, 0.0)]
+    q = np.round(np.log(d) / np.log1p(rtol)).astype(np.int64)
+    brk = np.flatnonzero(np.r_[True, q[1:] != q[:-1]])
+    ends = np.r_[brk[1:], len(d)]
+    return [(int(a), int(b), float(d[a:b].mean())) for a, b in zip(brk, ends)]
+
+
+def interval_real_dt(des, t, vx, u_lo, u_hi, y, x0_lo, x0_hi, y_noise):
+    """Ifqir 2017 observer (11) over a log with its real timestamps ``t`` (N,) [s]: one
+    :func:`interval.run_interval_observer` call per run of equal steps (:func:`dt_runs`),
+    each started from the box the previous one reached. Returns (x_lo, x_hi) (N, 2)."""
+    from vehicle_observers.observers import interval as _iv
+
+    N = len(t)
+    xl, xh = np.empty((N, 2)), np.empty((N, 2))
+    lo, hi = np.asarray(x0_lo, float), np.asarray(x0_hi, float)
+    for a, b, dt in dt_runs(t):
+        sl = slice(a, b + 1)
+        res = _iv.run_interval_observer(des, dt if dt > 0 else 1.0, vx[sl], u_lo[sl], u_hi[sl],
+                                        y[sl], lo, hi, y_noise=y_noise, clip_speed=True)
+        xl[sl], xh[sl] = res.x_lo, res.x_hi
+        lo, hi = res.x_lo[-1], res.x_hi[-1]
+    return xl, xh
+
+
+def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
     des, sec = interval_design(vehicle, log.dt)
     y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
     d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
-    r0 = float(log.yaw_rate[0])
-    t0 = time.perf_counter()
-    res = _iv.run_interval_observer(des, log.dt, log.vx, log.delta - d_noise,
-                                    log.delta + d_noise, log.yaw_rate, [-2.0, r0 - 0.6],
-                                    [2.0, r0 + 0.6], y_noise=y_noise, clip_speed=True)
-    wall = time.perf_counter() - t0
-    mid = 0.5 * (res.x_lo + res.x_hi)
-    cols = {"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
-            "beta_rad": np.arctan2(mid[:, 0], log.vx),
-            "vy_lo_mps": res.x_lo[:, 0], "vy_hi_mps": res.x_hi[:, 0],
-            "yaw_rate_lo_radps": res.x_lo[:, 1], "yaw_rate_hi_radps": res.x_hi[:, 1]}
+
+    def one(sub, a):
+        r0 = float(sub.yaw_rate[0])
+        t0 = time.perf_counter()
+        lo, hi = interval_real_dt(des, sub.t, sub.vx, sub.delta - d_noise, sub.delta + d_noise,
+                                  sub.yaw_rate, [-2.0, r0 - 0.6], [2.0, r0 + 0.6], y_noise)
+        wall = time.perf_counter() - t0
+        mid = 0.5 * (lo + hi)
+        return ({"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
+                 "beta_rad": np.arctan2(mid[:, 0], sub.vx),
+                 "vy_lo_mps": lo[:, 0], "vy_hi_mps": hi[:, 0],
+                 "yaw_rate_lo_radps": lo[:, 1], "yaw_rate_hi_radps": hi[:, 1]}, wall)
+
+    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_mps",
+                   "yaw_rate_lo_radps", "yaw_rate_hi_radps")
+    one.r_noise = y_noise
+    cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
+                                           max_gap, progress)
+    edges = des.model.bands.edges
+    moving = ~cols["low_speed"]
     return Estimates("interval-ifqir2017", log.t, cols, wall, sec, True,
-                     {"y_noise": y_noise, "steer_noise": d_noise, "n_clipped": res.n_clipped,
-                      "substeps": res.substeps, "gamma": des.gamma,
-                      "lmi_margin": des.lmi_margin,
+                     {"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
+                      "n_clipped": int(np.sum(moving & ((log.vx < edges[0])
+                                                        | (log.vx > edges[-1])))),
+                      "gamma": des.gamma, "lmi_margin": des.lmi_margin,
                       "metzler_margin": des.min_metzler_margin})
 
 
-if _iv is not None:
-    register(ObserverSpec(
-        "interval-ifqir2017",
-        "Ifqir 2017 switched TS interval observer (11), Theorem 2 LMI; bounds on vy and r "
-        "(point estimate = interval midpoint)",
-        _run_interval,
-        vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
-                                     "uncertainty.vx_max"),
-        interval=True, paper="Ifqir 2017"))
+register(ObserverSpec(
+    "interval-ifqir2017",
+    "Ifqir 2017 switched TS interval observer (11), Theorem 2 LMI; bounds on vy and r "
+    "(point estimate = interval midpoint)",
+    _run_interval,
+    vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
+                                 "uncertainty.vx_max"),
+    interval=True, paper="Ifqir 2017"))

@@ -2,7 +2,8 @@
 
     python -m vehicle_observers observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
-        --out EST.csv [--tune-window 120] [--progress/--no-progress]
+        --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
+        [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
 
 ``tune`` prints the ML noise tuning of the Kalman observers as a ``[kalman]`` TOML table:
@@ -12,16 +13,31 @@ append it to the vehicle file to skip the tuning in later runs.
 delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...).
 ``--vehicle`` is a TOML file (:mod:`vehicle_observers.models.vehicle`) or a built-in name
 (``yacine2015``, ``revs250lm``). The output CSV has ``t_s`` and one column per estimate with
-its unit in the name; it is written completely or not at all. When the log has reference
-columns the benchmark metrics are printed. Errors: one line on stderr, exit status 2 (bad
-input) or 3 (unexpected internal error); never a traceback.
+its unit in the name, plus ``low_speed`` (1 where the kinematic low-speed model replaced the
+observer: standstill, v_x < 2 m/s) and ``reinit`` (1 on the first row after a time gap longer
+than ``--max-gap``; the observer restarts there), see :mod:`vehicle_observers.cli.segments`.
+The output is written to ``EST.csv.partial-<pid>`` next to it and renamed when complete (the
+partial file is created first, so an unwritable folder fails at once; it is removed on
+errors and SIGTERM, and by the next run if a SIGKILL left it). ``--out`` equal to the log is
+refused. The log is checked for plausible units before computing
+(:func:`vehicle_observers.data.logs.check_plausible`; ``--accept-out-of-range`` accepts a
+log that really is out of range) and an output with NaN/inf, or ``|v_y|`` above 30 m/s, is an
+error, not a result. When the log has reference columns the benchmark metrics are printed.
+Errors: one line on stderr, exit status 2 (bad input), 3 (unexpected internal error), 143
+(SIGTERM); never a traceback, never a warning line.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
+import signal
 import sys
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
@@ -31,31 +47,39 @@ class CLIError(Exception):
     """A user-facing error (one line)."""
 
 
+def _add_common(p):
+    p.add_argument("log", help="drive log CSV (.csv or .csv.gz), schema of vehicle_observers.data.logs")
+    p.add_argument("--vehicle", required=True,
+                   help="vehicle TOML file, or a built-in name (yacine2015, revs250lm)")
+    p.add_argument("--tune-window", type=float, default=120.0,
+                   help="seconds of the log's first stretch in motion used for ML noise tuning "
+                        "of the Kalman observers when the vehicle file has no [kalman] table "
+                        "(default 120)")
+    p.add_argument("--max-gap", type=float, default=0.5,
+                   help="a time step longer than this [s] re-initialises the observer "
+                        "(default 0.5)")
+    p.add_argument("--accept-out-of-range", action="store_true",
+                   help="accept a log whose values are outside the plausible ranges of a road "
+                        "vehicle in SI units (otherwise refused naming the likely unit mistake)")
+
+
 def _parser():
     p = argparse.ArgumentParser(prog="python -m vehicle_observers",
                                 description="Vehicle lateral-state observers on drive logs.")
     sub = p.add_subparsers(dest="cmd", required=True)
     sub.add_parser("observers", help="list the observers and what each needs")
     e = sub.add_parser("estimate", help="run one observer on a log and write the estimates")
-    e.add_argument("log", help="drive log CSV (.csv or .csv.gz), schema of vehicle_observers.data.logs")
-    e.add_argument("--vehicle", required=True,
-                   help="vehicle TOML file, or a built-in name (yacine2015, revs250lm)")
+    _add_common(e)
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
     e.add_argument("--out", required=True, help="output CSV path")
-    e.add_argument("--tune-window", type=float, default=120.0,
-                   help="seconds of the log used for ML noise tuning of the Kalman observers "
-                        "when the vehicle file has no [kalman] table (default 120)")
     tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
                                      "a [kalman] table for the vehicle file")
-    tu.add_argument("log")
-    tu.add_argument("--vehicle", required=True)
-    tu.add_argument("--tune-window", type=float, default=120.0)
+    _add_common(tu)
     g = e.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
     g.add_argument("--no-progress", dest="progress", action="store_false")
     return p
-
 
 
 def cmd_observers(out=None):
@@ -87,108 +111,204 @@ def _fmt_metrics(m: dict) -> list[str]:
     return lines
 
 
+#: output columns checked for plausibility: |value| above the bound is a diverged estimate
+OUTPUT_BOUNDS = {"vy_mps": 30.0, "yaw_rate_radps": 5.0}
+
+
+def _check_args(args):
+    if not (np.isfinite(args.tune_window) and args.tune_window > 0):
+        raise CLIError(f"--tune-window must be a number of seconds > 0, got {args.tune_window}")
+    if not (np.isfinite(args.max_gap) and args.max_gap > 0):
+        raise CLIError(f"--max-gap must be a number of seconds > 0, got {args.max_gap}")
+
+
+def _load(args, vehicle, columns=None, progress=None):
+    """The log, validated: schema, plausible units (unless --accept-out-of-range)."""
+    from vehicle_observers.data.logs import check_plausible, load_log
+
+    log = load_log(args.log, min_vx=None, columns=columns, progress=progress)
+    check_plausible(log, vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
+    return log
+
+
+def _check_output(name, table: dict, accept: bool):
+    """An output with NaN/inf (or a diverged v_y / yaw rate) is an error, not a result."""
+    for c, v in table.items():
+        bad = ~np.isfinite(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise CLIError(f"observer {name!r} produced {int(bad.sum())} NaN/inf value(s) in "
+                           f"{c!r}, first at row {i}; nothing written")
+    for c, lim in OUTPUT_BOUNDS.items():
+        v = table.get(c)
+        if v is not None and not accept and np.abs(v).max() > lim:
+            i = int(np.argmax(np.abs(v) > lim))
+            raise CLIError(f"observer {name!r} diverged: {c!r} = {v[i]:.4g} at row {i} "
+                           f"(|value| > {lim:g} is implausible); nothing written")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def _out_path(args) -> Path:
+    out_path = Path(args.out)
+    if out_path.is_dir():
+        raise CLIError(f"--out {args.out}: is a directory, expected a file path")
+    if not out_path.parent.exists() and str(out_path.parent) not in ("", "."):
+        raise CLIError(f"--out {args.out}: folder {out_path.parent} does not exist")
+    if Path(args.log).exists() and _same_file(Path(args.log), out_path):
+        raise CLIError(f"--out {args.out}: is the input log; choose another file")
+    return out_path
+
+
+class _Bar:
+    """Progress bar on stderr with stages (loading 0-10 %, design/tuning 10-40 %, estimation
+    40-85 %, writing 85-100 %)."""
+
+    def __init__(self, show, desc):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=100, disable=not show, file=sys.stderr, desc=desc,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
+
+    def stage(self, pct, what):
+        self.bar.n = int(pct)
+        self.bar.set_postfix_str(what, refresh=False)
+        self.bar.refresh()
+
+    def part(self, lo, hi, what):
+        return lambda k, n: self.stage(lo + (hi - lo) * k / max(n, 1), f"{what} {k}/{n}")
+
+    def observer(self, k, N, what="step"):
+        if what == "tuning":
+            self.stage(10 + 30 * k / max(N, 1), f"ML noise tuning, evaluation {k}")
+        else:
+            self.stage(40 + 45 * k / max(N, 1), f"row {k}/{N}")
+
+
 def cmd_estimate(args, out=None):
     out = out or sys.stdout
-    import numpy as np
-
     from vehicle_observers.cli.registry import available, score
-    from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError
-    from vehicle_observers.data.logs import load_log, write_csv
-    from vehicle_observers.models.vehicle import VehicleFileError, load_vehicle
+    from vehicle_observers.data.logs import OPTIONAL, REQUIRED, AtomicOutput
+    from vehicle_observers.models.vehicle import load_vehicle
 
     obs = available()
     if args.observer not in obs:
         raise CLIError(f"unknown observer {args.observer!r}; available: {', '.join(obs)}")
     spec = obs[args.observer]
-    out_path = Path(args.out)
-    if out_path.exists() and out_path.is_dir():
-        raise CLIError(f"--out {args.out}: is a directory, expected a file path")
-    if not out_path.parent.exists() and str(out_path.parent) not in ("", "."):
-        raise CLIError(f"--out {args.out}: folder {out_path.parent} does not exist")
-    if not np.isfinite(args.tune_window) or args.tune_window <= 0:
-        raise CLIError(f"--tune-window must be > 0 s, got {args.tune_window}")
+    _check_args(args)
+    out_path = _out_path(args)
     show = sys.stderr.isatty() if args.progress is None else args.progress
-    from tqdm import tqdm
-
-    bar = tqdm(total=100, disable=not show, file=sys.stderr, desc=args.observer,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
-
-    def stage(pct, what):
-        bar.n = pct
-        bar.set_postfix_str(what)
-        bar.refresh()
-
-    def progress(k, N, what="step"):
-        if what == "tuning":
-            stage(10 + int(40 * k / max(N, 1)), f"ML noise tuning, evaluation {k}")
-        else:
-            stage(50 + int(40 * k / max(N, 1)), f"step {k}/{N}")
-
+    bar = _Bar(show, args.observer)
     try:
-        stage(0, "loading log")
+        vehicle = load_vehicle(args.vehicle)
         try:
-            vehicle = load_vehicle(args.vehicle)
-        except VehicleFileError as exc:
-            raise CLIError(str(exc)) from None
+            sink = AtomicOutput(out_path).__enter__()
+        except OSError as exc:
+            raise CLIError(f"--out {args.out}: cannot write there "
+                           f"({exc.strerror or exc})") from None
         try:
-            log = load_log(args.log)
+            # every schema column is read and checked (an absurd value in any channel is
+            # refused), plus the emulated logs' yaw-rate truth used for scoring
+            cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
+            log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
             spec.check(log, vehicle)
-        except (LogFormatError, VehicleFileError) as exc:
-            raise CLIError(str(exc)) from None
-        stage(10, "design / tuning")
-        try:
-            est = spec.run(log, vehicle, window_s=args.tune_window, progress=progress)
-        except InfeasibleDesign as exc:
-            lmi = f" (LMI {exc.lmi})" if getattr(exc, "lmi", None) else ""
-            raise CLIError(f"observer {spec.name!r}: design infeasible for vehicle "
-                           f"{vehicle.name!r}{lmi}: {str(exc).splitlines()[0]}") from None
-        except (LogFormatError, VehicleFileError, ValueError) as exc:
-            raise CLIError(f"observer {spec.name!r}: {str(exc).splitlines()[0]}") from None
-        stage(90, "writing")
-        try:
-            write_csv(out_path, est.table())
+            bar.stage(10, "design / tuning")
+            est = spec.run(log, vehicle, window_s=args.tune_window, progress=bar.observer,
+                           max_gap=args.max_gap, cache=True)
+            table = est.table()
+            _check_output(spec.name, table, args.accept_out_of_range)
+            bar.stage(85, "writing")
+            sink.commit(table, bar.part(85, 100, "writing, rows"))
         except OSError as exc:
             raise CLIError(f"--out {args.out}: cannot write ({exc.strerror or exc})") from None
-        stage(100, "done")
+        finally:
+            sink.__exit__(None, None, None)
+        bar.stage(100, "done")
     finally:
-        bar.close()
+        bar.bar.close()
+    _report(args, spec, est, log, vehicle, out_path, score(est, log), out)
+    return 0
+
+
+def _report(args, spec, est, log, vehicle, out_path, m, out):
     n = len(est.t)
+    low = int(np.sum(est.columns["low_speed"]))
     print(f"{spec.name} on {Path(args.log).name} ({n} samples, {log.duration:.1f} s) with "
-          f"{vehicle.name}: {est.us_per_step:.3g} us/step, real-time factor "
-          f"{log.duration / max(est.seconds, 1e-12):.3g}x; design/tuning {est.design_seconds:.2f} s",
-          file=out)
+          f"{vehicle.name}: {est.us_per_step:.3g} us/step (compiled kernels), real-time factor "
+          f"{log.duration / max(est.seconds, 1e-12):.3g}x; design/tuning "
+          f"{est.design_seconds:.2f} s", file=out)
+    print(f"low-speed model on {low} row(s) (low_speed = 1); "
+          f"{int(np.sum(est.columns['reinit']))} re-initialisation(s) after gaps > "
+          f"{args.max_gap:g} s (reinit = 1)", file=out)
     if not est.causal:
         print("note: this estimator is OFFLINE (uses future samples)", file=out)
     print(f"wrote {out_path} (columns: {', '.join(est.table())})", file=out)
-    m = score(est, log)
     if any(k.startswith("rmse_vy") or k.startswith("enclosure") or k.startswith("rmse_F")
            for k in m):
         print("metrics against the log's reference columns:", file=out)
         for line in _fmt_metrics(m):
             print(line, file=out)
-    return 0
 
 
 def cmd_tune(args, out=None):
     out = out or sys.stdout
-    from vehicle_observers.baselines.kalman import tune
-    from vehicle_observers.core.errors import LogFormatError
-    from vehicle_observers.data.logs import load_log
-    from vehicle_observers.models.vehicle import VehicleFileError, load_vehicle
+    from vehicle_observers.cli.registry import kalman_tuning
+    from vehicle_observers.models.vehicle import load_vehicle
 
-    if not args.tune_window > 0:
-        raise CLIError(f"--tune-window must be > 0 s, got {args.tune_window}")
-    try:
-        vehicle = load_vehicle(args.vehicle)
-        log = load_log(args.log)
-    except (LogFormatError, VehicleFileError) as exc:
-        raise CLIError(str(exc)) from None
-    tun = tune(log, vehicle.params, window_s=args.tune_window)
+    _check_args(args)
+    vehicle = load_vehicle(args.vehicle)
+    log = _load(args, vehicle, ("ay_mps2",))
+    tun, _ = kalman_tuning(log, dataclasses.replace(vehicle, kalman=None),
+                           window_s=args.tune_window, max_gap=args.max_gap, cache=True)
     print(f"# {tun.source}", file=out)
     print("[kalman]", file=out)
     for k in ("q_vy", "q_r", "q_b", "R_r", "R_ay"):
         print(f"{k} = {getattr(tun, k):.6g}", file=out)
     return 0
+
+
+def _on_sigterm(signum, frame):
+    """SIGTERM: remove the partial output, one line, exit 143 at once (no exception is
+    raised: it could surface inside a pyarrow or numba call)."""
+    from vehicle_observers.data.logs import ACTIVE_PARTIALS
+
+    for p in list(ACTIVE_PARTIALS):
+        try:
+            p.unlink()
+        except OSError:
+            pass
+    os.write(2, b"error: terminated by SIGTERM (no output written)\n")
+    os._exit(143)
+
+
+#: errors caused by the input (exit status 2)
+def _input_errors():
+    from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError
+    from vehicle_observers.models.vehicle import VehicleFileError
+
+    return (LogFormatError, VehicleFileError, InfeasibleDesign, ValueError)
+
+
+def _run(args):
+    try:
+        if args.cmd == "observers":
+            return cmd_observers()
+        if args.cmd == "tune":
+            return cmd_tune(args)
+        return cmd_estimate(args)
+    except _input_errors() as exc:
+        from vehicle_observers.core.errors import InfeasibleDesign
+
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if isinstance(exc, InfeasibleDesign):
+            lmi = f" (LMI {exc.lmi})" if getattr(exc, "lmi", None) else ""
+            msg = f"observer {getattr(args, 'observer', 'tune')!r}: design infeasible{lmi}: {msg}"
+        raise CLIError(msg) from None
 
 
 def main(argv=None) -> int:
@@ -197,12 +317,11 @@ def main(argv=None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse already printed a one-line usage error
         return EXIT_INPUT if exc.code else 0
+    prev = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
     try:
-        if args.cmd == "observers":
-            return cmd_observers()
-        if args.cmd == "tune":
-            return cmd_tune(args)
-        return cmd_estimate(args)
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")   # one-line errors: no warning lines from libraries
+            return _run(args)
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INPUT
@@ -213,6 +332,15 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else ""
         print(f"error: internal error {type(exc).__name__}: {msg}", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        if prev is not None:
+            signal.signal(signal.SIGTERM, prev)
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ import csv
 import gzip
 import io
 import os
-import tempfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -106,52 +106,307 @@ class DriveLog:
         write_csv(path, self.columns())
 
 
-def write_csv(path, columns: dict[str, np.ndarray], fmt: str = "%.10g"):
-    """Write named equal-length columns as CSV, completely or not at all."""
+#: rows per batch when writing (the progress callback is called after each)
+WRITE_BATCH = 1 << 18
+#: longest field accepted in a log [characters] (a longer one is not a number of a log)
+MAX_FIELD = 128 * 1024
+
+
+def partial_path(path) -> Path:
+    """The temporary file of an output being written: next to ``path``, named
+    ``<name>.partial-<pid>`` (renamed onto ``path`` once complete)."""
     path = Path(path)
-    names = list(columns)
-    data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", suffix=".tmp")
+    return path.with_name(f"{path.name}.partial-{os.getpid()}")
+
+
+def _pid_alive(pid: int) -> bool:
     try:
-        with os.fdopen(fd, "w", newline="") as fh:
-            np.savetxt(fh, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale_partials(path) -> list[Path]:
+    """Delete ``<name>.partial-<pid>`` files next to ``path`` whose process is gone (left by
+    a run killed with SIGKILL). Returns the files removed."""
+    path = Path(path)
+    gone = []
+    for f in path.parent.glob(f"{path.name}.partial-*"):
+        pid = f.name.rsplit("-", 1)[-1]
+        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+            f.unlink(missing_ok=True)
+            gone.append(f)
+    return gone
+
+
+#: partial files being written by this process (removed by the command line on SIGTERM)
+ACTIVE_PARTIALS: set = set()
+
+
+class AtomicOutput:
+    """An output CSV written completely or not at all.
+
+    ``with AtomicOutput(path) as out: ...; out.commit(columns)``: on entry, stale partial
+    files of killed runs are removed and the partial file is created at once (so an
+    unwritable folder fails before any computing); :meth:`commit` writes it and renames it
+    onto ``path``; leaving the block without a commit (error, SIGTERM turned into an
+    exception) deletes it. The file gets the normal permissions (``0666 & ~umask``).
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.tmp = partial_path(self.path)
+        self.done = False
+
+    def __enter__(self):
+        remove_stale_partials(self.path)
+        fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        os.close(fd)
+        ACTIVE_PARTIALS.add(self.tmp)
+        return self
+
+    def commit(self, columns: dict, progress=None):
+        _write_arrow(self.tmp, columns, progress)
+        os.replace(self.tmp, self.path)
+        ACTIVE_PARTIALS.discard(self.tmp)
+        self.done = True
+
+    def __exit__(self, *exc):
+        if not self.done:
+            self.tmp.unlink(missing_ok=True)
+        ACTIVE_PARTIALS.discard(self.tmp)
+        return False
+
+
+def _write_arrow(path, columns: dict, progress=None):
+    """CSV with pyarrow's writer (header line, comma separated, shortest round-trip floats;
+    integer / boolean columns as integers), streamed in batches of :data:`WRITE_BATCH` rows
+    with ``progress(rows_written, rows)`` after each."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    names = list(columns)
+    arrs = []
+    for c in names:
+        a = np.asarray(columns[c])
+        arrs.append(a.astype(np.int8) if a.dtype == bool else a)
+    n = len(arrs[0]) if arrs else 0
+    for c, a in zip(names, arrs):
+        if a.shape != (n,):
+            raise ValueError(f"column {c!r} has shape {a.shape}, expected ({n},)")
+    schema = pa.schema([(c, pa.from_numpy_dtype(a.dtype)) for c, a in zip(names, arrs)])
+    with open(path, "wb") as fh:   # plain header line (pyarrow would quote the names)
+        fh.write((",".join(names) + "\n").encode())
+    opts = pacsv.WriteOptions(include_header=False, quoting_style="none")
+    with open(path, "ab") as fh, pacsv.CSVWriter(fh, schema, write_options=opts) as w:
+        for a in range(0, max(n, 1), WRITE_BATCH):
+            b = min(n, a + WRITE_BATCH)
+            w.write_batch(pa.record_batch([pa.array(x[a:b]) for x in arrs], schema=schema))
+            if progress is not None:
+                progress(b, n)
+
+
+def write_csv(path, columns: dict[str, np.ndarray], progress=None):
+    """Write named equal-length columns as CSV (pyarrow), completely or not at all."""
+    with AtomicOutput(path) as out:
+        out.commit(columns, progress)
 
 
 def _open_text(path: Path):
     if path.suffix == ".gz":
-        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8")
-    return open(path, encoding="utf-8", newline="")
+        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8-sig")
+    return open(path, encoding="utf-8-sig", newline="")
 
 
-def load_log(path, min_vx: float | None = 0.0, required=REQUIRED) -> DriveLog:
+def _read_header(path: Path, name: str) -> list[str]:
+    try:
+        with _open_text(path) as fh:
+            line = fh.readline(MAX_FIELD + 1)
+    except (OSError, UnicodeDecodeError, EOFError, gzip.BadGzipFile) as exc:
+        raise LogFormatError(f"{name}: cannot read ({exc})") from None
+    if len(line) > MAX_FIELD:
+        raise LogFormatError(f"{name}: header line longer than {MAX_FIELD} characters")
+    if not line.strip():
+        raise LogFormatError(f"{name}: empty file (expected a header line with "
+                             f"{', '.join(REQUIRED)})")
+    return [h.strip() for h in next(csv.reader([line]))]
+
+
+def _diagnose(path: Path, name: str, header: list[str]):
+    """Slow row-by-row scan, only after the fast reader failed: raise the LogFormatError that
+    names the first bad row/column."""
+    ncol = len(header)
+    csv.field_size_limit(MAX_FIELD)
+    try:
+        with _open_text(path) as fh:
+            reader = csv.reader(fh)
+            next(reader)
+            for i, row in enumerate(reader):
+                if len(row) != ncol:
+                    raise LogFormatError(f"{name}: row {i} (line {i + 2}) has {len(row)} "
+                                         f"fields, expected {ncol}")
+                for j, s in enumerate(row):
+                    try:
+                        float(s)
+                    except ValueError:
+                        raise LogFormatError(f"{name}: column {header[j]!r}, row {i} (line "
+                                             f"{i + 2}): {s[:40]!r} is not a number") from None
+    except csv.Error as exc:
+        raise LogFormatError(f"{name}: line {reader.line_num + 1}: {exc} (a field longer "
+                             f"than {MAX_FIELD} characters or a broken quote)") from None
+    except (OSError, EOFError, UnicodeDecodeError, gzip.BadGzipFile) as exc:
+        raise LogFormatError(f"{name}: cannot read ({exc}; truncated or corrupt file?)") from None
+
+
+class _Guard(io.RawIOBase):
+    """Binary reader handed to pyarrow: decompresses ``.gz``, reports ``progress(bytes of the
+    file read, file size)``, and stops at the first line longer than :data:`MAX_FIELD`
+    (``long_line`` = its line number) or at a read error (``error``)."""
+
+    def __init__(self, path: Path, progress=None):
+        self.raw = open(path, "rb")
+        self.fh = gzip.GzipFile(fileobj=self.raw) if path.suffix == ".gz" else self.raw
+        self.size = max(path.stat().st_size, 1)
+        self.progress = progress
+        self.lines = 0        # newlines seen
+        self.run = 0          # length of the current (unfinished) line
+        self.long_line = None
+        self.error = None
+
+    def readable(self):
+        return True
+
+    def read(self, n=-1):
+        if self.long_line is not None or self.error is not None:
+            return b""
+        try:
+            b = self.fh.read(n)
+        except (OSError, EOFError, zlib.error) as exc:
+            self.error = exc
+            return b""
+        self._check(b)
+        if self.progress is not None:
+            self.progress(min(self.raw.tell(), self.size), self.size)
+        return b if self.long_line is None else b""
+
+    def _check(self, b):
+        nl = np.flatnonzero(np.frombuffer(b, np.uint8) == 10)
+        if not len(nl):
+            self.run += len(b)
+            if self.run > MAX_FIELD:
+                self.long_line = self.lines + 1
+            return
+        lengths = np.r_[self.run + nl[0], np.diff(nl) - 1]
+        if lengths.max() > MAX_FIELD:
+            self.long_line = self.lines + 1 + int(np.argmax(lengths > MAX_FIELD))
+        self.lines += len(nl)
+        self.run = len(b) - 1 - int(nl[-1])
+        if self.run > MAX_FIELD and self.long_line is None:
+            self.long_line = self.lines + 1
+
+    def close(self):
+        self.fh.close()
+        self.raw.close()
+        super().close()
+
+
+#: bytes per block of the CSV reader
+BLOCK = 1 << 22
+
+
+def _text_size(path: Path) -> int:
+    """Bytes of CSV text: the file size, or for ``.gz`` the size stored in its trailer (the
+    uncompressed size modulo 2^32; the compressed size when that is smaller)."""
+    size = path.stat().st_size
+    if path.suffix != ".gz" or size < 18:
+        return size
+    with open(path, "rb") as fh:
+        fh.seek(-4, os.SEEK_END)
+        isize = int.from_bytes(fh.read(4), "little")
+    return max(isize, size)
+
+
+def _grown(a: np.ndarray, n: int, cap: int) -> np.ndarray:
+    """A (cap,) float array holding the first ``n`` values of ``a``."""
+    out = np.empty(cap)
+    out[:n] = a[:n]
+    return out
+
+
+def _read_columns(path: Path, name: str, header: list[str], keep: list[str], progress=None):
+    """Numeric columns ``keep`` of the CSV with pyarrow's streaming reader, each batch copied
+    at once into float64 arrays sized from the bytes read so far (peak memory: the arrays plus
+    a few blocks). Returns ``{column: (N,) array}`` with NaN for empty / null fields."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    guard = _Guard(path, progress)
+    total = _text_size(path)
+    ropt = pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=BLOCK,
+                             use_threads=True)
+    copt = pacsv.ConvertOptions(column_types={c: pa.float64() for c in header},
+                                include_columns=keep, strings_can_be_null=False)
+    buf = {c: np.empty(0) for c in keep}
+    n = 0
+    try:
+        with pacsv.open_csv(pa.PythonFile(guard, mode="r"), read_options=ropt,
+                            convert_options=copt,
+                            parse_options=pacsv.ParseOptions(newlines_in_values=False)) as rd:
+            for batch in rd:
+                m = batch.num_rows
+                if n + m > len(buf[keep[0]]):
+                    # first batch ~ one block: rows of the whole text projected (+2 %)
+                    cap = (int(m * total / BLOCK * 1.02) + 1 if n == 0
+                           else int(1.25 * len(buf[keep[0]])))
+                    buf = {c: _grown(v, n, max(cap, n + m)) for c, v in buf.items()}
+                for c in keep:
+                    buf[c][n:n + m] = batch.column(c).to_numpy(zero_copy_only=False)
+                n += m
+                del batch
+    except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError):
+        if guard.long_line is None and guard.error is None:
+            guard.close()
+            _diagnose(path, name, header)
+            raise LogFormatError(f"{name}: not a numeric CSV table (the fast reader rejected "
+                                 "it)") from None
+    except OSError as exc:
+        guard.error = guard.error or exc
+    guard.close()
+    if guard.long_line is not None:
+        raise LogFormatError(f"{name}: line {guard.long_line} is longer than {MAX_FIELD} "
+                             "characters (expected one row of numbers per line)")
+    if guard.error is not None:
+        raise LogFormatError(f"{name}: cannot read ({guard.error}; truncated or corrupt "
+                             "file?)")
+    out = {c: v[:n] for c, v in buf.items()}
+    pa.default_memory_pool().release_unused()   # hand the freed Arrow blocks back to the OS
+    return out
+
+
+def load_log(path, min_vx: float | None = 0.0, required=REQUIRED, columns=None,
+             progress=None) -> DriveLog:
     """Load and validate a drive log (see module docstring for the schema).
 
-    Parameters
+    Read with pyarrow's multi-threaded streaming CSV reader (a UTF-8 byte-order mark is
+    accepted). Parameters
     ----------
     min_vx : speed floor [m/s]; every ``vx_mps`` sample must be ``> min_vx`` (``None`` skips
-        the check, for uses that never divide by ``v_x``).
+        the check: the command line handles standstill rows itself).
     required : columns that must be present.
+    columns : read only these columns (plus ``required``; ``None``: all); keeps the memory
+        of a large log near the arrays actually used.
+    progress : ``progress(bytes_read, bytes_total)`` called while reading.
     """
     path = Path(path)
     name = path.name
     if not path.exists():
         raise LogFormatError(f"{path}: no such file")
-    try:
-        with _open_text(path) as fh:
-            reader = csv.reader(fh)
-            try:
-                header = [h.strip() for h in next(reader)]
-            except StopIteration:
-                raise LogFormatError(f"{name}: empty file (expected a header line with "
-                                     f"{', '.join(REQUIRED)})") from None
-            rows = list(reader)
-    except (OSError, UnicodeDecodeError, gzip.BadGzipFile) as exc:
-        raise LogFormatError(f"{name}: cannot read ({exc})") from exc
+    if path.is_dir():
+        raise LogFormatError(f"{path}: is a directory, expected a CSV file")
+    header = _read_header(path, name)
     dup = {h for h in header if header.count(h) > 1}
     if dup:
         raise LogFormatError(f"{name}: duplicate column name(s) {sorted(dup)}")
@@ -159,27 +414,17 @@ def load_log(path, min_vx: float | None = 0.0, required=REQUIRED) -> DriveLog:
         if c not in header:
             raise LogFormatError(f"{name}: missing column {c!r} (the schema requires "
                                  f"{', '.join(required)}; found {', '.join(header)})")
-    if not rows:
+    keep = header if columns is None else [h for h in header if h in set(columns) | set(required)]
+    col = _read_columns(path, name, header, keep, progress)
+    if not len(col[keep[0]]):
         raise LogFormatError(f"{name}: no data rows")
-    ncol = len(header)
-    data = np.empty((len(rows), ncol))
-    for i, row in enumerate(rows):
-        if len(row) != ncol:
-            raise LogFormatError(f"{name}: row {i} (line {i + 2}) has {len(row)} fields, "
-                                 f"expected {ncol}")
-        for j, s in enumerate(row):
-            try:
-                data[i, j] = float(s)
-            except ValueError:
-                raise LogFormatError(f"{name}: column {header[j]!r}, row {i} (line {i + 2}): "
-                                     f"{s!r} is not a number") from None
-    for j, c in enumerate(header):
-        bad = ~np.isfinite(data[:, j])
+    for c in keep:
+        bad = ~np.isfinite(col[c])
         if bad.any():
             i = int(np.argmax(bad))
             raise LogFormatError(f"{name}: column {c!r} has {int(bad.sum())} NaN/inf value(s), "
-                                 f"first at row {i} (line {i + 2}); expected finite numbers")
-    col = {c: data[:, j].copy() for j, c in enumerate(header)}
+                                 f"first at row {i} (line {i + 2}); expected finite numbers "
+                                 f"(an empty field counts as NaN)")
     t = col.get("t_s")
     if t is not None:
         d = np.diff(t)
@@ -197,6 +442,107 @@ def load_log(path, min_vx: float | None = 0.0, required=REQUIRED) -> DriveLog:
                                  f"{col['vx_mps'][i]:g} ({int(bad.sum())} such rows)")
     kw = {a: col.pop(c, None) for c, a in _ATTR.items()}
     return DriveLog(**kw, extra=col, source=name)
+
+
+#: plausible range of each schema column for a road vehicle, and the likely unit mistake
+#: when a value falls outside (:func:`check_plausible`)
+PLAUSIBLE = {
+    "vx_mps": (-15.0, 90.0, "speed in km/h instead of m/s? (90 m/s = 324 km/h)"),
+    "delta_roadwheel_rad": (-0.8, 0.8, "road-wheel angle in degrees instead of rad, or the "
+                                       "steering-wheel angle instead of the road-wheel angle?"),
+    "yaw_rate_radps": (-2.5, 2.5, "yaw rate in deg/s instead of rad/s?"),
+    "ay_mps2": (-25.0, 25.0, "lateral acceleration in ft/s^2 or mm/s^2 instead of m/s^2?"),
+    "vy_mps": (-30.0, 30.0, "lateral velocity in km/h instead of m/s?"),
+    "yL_m": (-50.0, 50.0, "lateral offset in cm or mm instead of m?"),
+    "psiL_rad": (-1.6, 1.6, "relative heading in degrees instead of rad?"),
+    "Ff_N": (-1e6, 1e6, "axle force in a unit other than N?"),
+    "Fr_N": (-1e6, 1e6, "axle force in a unit other than N?"),
+    "rho_1pm": (-1.0, 1.0, "curvature in a unit other than 1/m?"),
+}
+#: sampling interval range [s]: 10 kHz .. 2 Hz
+DT_RANGE = (1e-4, 0.5)
+#: any |value| above this in any column is refused even with ``accept=True``
+ABSURD = 1e12
+
+
+def _consistency(log: DriveLog, wheelbase: float) -> str | None:
+    """Cross-channel unit check on the moving rows (|v_x| > 5 m/s) with enough excitation:
+    the yaw rate must follow ``r = k v_x delta / L`` with ``0.08 < k < 12`` (kinematic
+    ``k = 1``; understeer lowers it, degrees instead of rad give ``k ~ 1/57``, a
+    steering-wheel angle ``k ~ 1/15``, a yaw rate in deg/s ``k ~ 57``), and ``a_y``, if
+    present, must follow ``a_y = k v_x r + c`` with ``0.5 < k < 2`` (steady turning ``k = 1``;
+    speed in km/h gives 0.28, a_y in g 0.10). Returns the message of the first violation."""
+    mv = np.abs(log.vx) > 5.0
+    if mv.sum() < 100:
+        return None
+    x = log.vx[mv] * log.delta[mv] / wheelbase
+    r = log.yaw_rate[mv]
+    if np.std(x) > 0.02 and np.std(r) > 0.02:
+        xc, rc = x - x.mean(), r - r.mean()
+        k = float(np.dot(xc, rc) / np.dot(xc, xc))
+        if k < 0:
+            return ("columns 'delta_roadwheel_rad' and 'yaw_rate_radps' have opposite signs "
+                    f"(yaw rate = {k:.3g} v_x delta / L): both must be positive to the left")
+        if k < 0.08:
+            return (f"column 'delta_roadwheel_rad' is too large for the yaw rate (yaw rate = "
+                    f"{k:.3g} v_x delta / L, expected 0.08..12, kinematic 1): degrees instead "
+                    "of rad, or the steering-wheel angle instead of the road-wheel angle?")
+        if k > 12:
+            return (f"column 'yaw_rate_radps' is too large for the steering (yaw rate = "
+                    f"{k:.3g} v_x delta / L, expected 0.08..12): deg/s instead of rad/s?")
+    if log.ay is not None:
+        z = log.vx[mv] * r
+        a = log.ay[mv]
+        if np.std(z) > 0.5:
+            zc = z - z.mean()
+            k = float(np.dot(zc, a - a.mean()) / np.dot(zc, zc))
+            if not 0.5 < k < 2.0:
+                return (f"columns 'vx_mps', 'yaw_rate_radps', 'ay_mps2' disagree: a_y = {k:.3g} "
+                        "v_x r (expected about 1): speed in km/h gives 0.28, a_y in g 0.10, "
+                        "a_y in ft/s^2 3.3")
+    return None
+
+
+def check_plausible(log: DriveLog, wheelbase: float | None = None, accept: bool = False):
+    """Refuse a log whose values cannot be those of a road vehicle in SI units.
+
+    Raises :class:`LogFormatError` naming the column and the likely unit mistake when a
+    column leaves its :data:`PLAUSIBLE` range, the median sampling interval leaves
+    :data:`DT_RANGE` (time in ms or us), or the channels disagree (:func:`_consistency`,
+    needs ``wheelbase`` [m]). ``accept=True`` (``--accept-out-of-range``) skips these checks
+    for a log that really is out of range; values above :data:`ABSURD` are refused always.
+    """
+    name = log.source or "log"
+    for c, v in log.columns().items():
+        big = np.abs(v) > (ABSURD if c != "t_s" else 1e15)
+        if big.any():
+            i = int(np.argmax(big))
+            raise LogFormatError(f"{name}: column {c!r} has an absurd value {v[i]:.3g} at row "
+                                 f"{i} (line {i + 2}); refused before computing")
+    if accept:
+        return
+    for c, (lo, hi, why) in PLAUSIBLE.items():
+        v = log.columns().get(c)
+        if v is None:
+            continue
+        out = (v < lo) | (v > hi)
+        if out.any():
+            i = int(np.argmax(out))
+            raise LogFormatError(f"{name}: column {c!r} = {v[i]:.4g} at row {i} (line {i + 2}) "
+                                 f"is outside the plausible range [{lo:g}, {hi:g}]: {why} "
+                                 f"(--accept-out-of-range accepts it)")
+    if len(log) > 1:
+        dt = float(np.median(np.diff(log.t)))
+        if not DT_RANGE[0] <= dt <= DT_RANGE[1]:
+            why = ("time in milliseconds instead of seconds?" if dt > DT_RANGE[1]
+                   else "time in a unit smaller than seconds, or a sampling rate above 10 kHz?")
+            raise LogFormatError(f"{name}: column 't_s' has a median sampling interval of "
+                                 f"{dt:.4g} s, outside [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s: "
+                                 f"{why} (--accept-out-of-range accepts it)")
+    if wheelbase is not None:
+        msg = _consistency(log, wheelbase)
+        if msg:
+            raise LogFormatError(f"{name}: {msg} (--accept-out-of-range accepts it)")
 
 
 def despike(x, threshold: float):

@@ -36,6 +36,23 @@ def _is_expr(x) -> bool:
     return isinstance(x, cp.Expression)
 
 
+class LMIDataError(InfeasibleDesign):
+    """The data of an LMI (a constant inside a constraint) is NaN or infinite: the design is
+    refused before the solver sees it. ``lmi`` names the constraint."""
+
+
+def _check_finite(design: str, name: str, M):
+    """Raise :class:`LMIDataError` if constraint ``name`` holds a NaN/inf constant."""
+    consts = [c.value for c in M.constants()] if _is_expr(M) else [M]
+    for c in consts:
+        a = np.asarray(c, dtype=float)
+        if not np.all(np.isfinite(a)):
+            bad = "NaN" if np.isnan(a).any() else "inf"
+            raise LMIDataError(f"{design}: constraint {name!r} has {bad} in its data (expected "
+                               f"finite matrices; check the model constants)", lmi=name,
+                               status="bad_data")
+
+
 def bmat(blocks):
     """Block matrix from a nested list; cvxpy if any block is a cvxpy expression else numpy."""
     if any(_is_expr(b) for row in blocks for b in row):
@@ -252,6 +269,7 @@ class LMIDesign:
         out = []
         for name, kind, b in self._cons:
             M = b(V)
+            _check_finite(self.name, name, M)
             if kind == "nonneg":
                 out.append(M >= self._margins.get(name, 0.0))
                 continue

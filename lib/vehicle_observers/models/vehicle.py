@@ -26,7 +26,9 @@ Format (SI units; see ``vehicles/yacine2015.toml`` and ``vehicles/revs250lm.toml
     q_vy = ...; q_r = ...; q_b = ...; R_r = ...; R_ay = ...
 
 Bad files raise :class:`VehicleFileError` with the file name and the key, e.g.
-``revs.toml: key 'tire_front.D' must be a number > 0, got -3``.
+``revs.toml: key 'tire_front.D' must be a number > 0, got -3``. Unknown keys (a typo such as
+``ls = 3.0``) are errors, and every constant must lie in the plausible range of a road
+vehicle (:data:`RANGES`, e.g. ``m`` in [50, 1e5] kg, ``I_z`` in [10, 1e6] kg m^2).
 """
 
 from __future__ import annotations
@@ -115,6 +117,40 @@ def builtin_vehicles() -> dict[str, Path]:
     return {p.name[:-5]: Path(str(p)) for p in d.iterdir() if p.name.endswith(".toml")}
 
 
+#: keys a vehicle file may hold (anything else is an error: a typo such as ``ls = 3.0`` must
+#: not be ignored silently)
+TOP_KEYS = ("name", "m", "I_z", "a_f", "a_r", "r_f", "r_r", "l_s", "tire_front", "tire_rear",
+            "uncertainty", "kalman")
+TYRE_KEYS = {"pacejka": ("model", "B", "C", "D", "E"),
+             "linear": ("model", "cornering_stiffness")}
+#: plausible range of each constant of a road vehicle (SI units); outside it the file is
+#: refused naming the key (absurd values such as ``I_z = 1e-300`` or ``m = 1e300`` make the
+#: models overflow or the LMIs meaningless)
+RANGES = {"m": (50.0, 1e5), "I_z": (10.0, 1e6), "a_f": (0.1, 10.0), "a_r": (0.1, 10.0),
+          "r_f": (0.0, 5.0), "r_r": (0.0, 5.0), "l_s": (0.0, 100.0),
+          "B": (0.1, 100.0), "C": (0.1, 5.0), "D": (10.0, 1e6), "E": (-20.0, 1.0),
+          "cornering_stiffness": (100.0, 1e7),
+          "uncertainty.vx_min": (0.01, 150.0), "uncertainty.vx_max": (0.1, 150.0),
+          "uncertainty.slip_max_deg": (0.1, 45.0), "kalman.q_vy": (0.0, 1e6),
+          "kalman.q_r": (0.0, 1e6), "kalman.q_b": (0.0, 1e6), "kalman.R_r": (0.0, 1e6),
+          "kalman.R_ay": (0.0, 1e6)}
+
+
+def _in_range(v, key, fname):
+    lo, hi = RANGES.get(key, RANGES.get(key.split(".")[-1], (-math.inf, math.inf)))
+    if not lo <= v <= hi:
+        raise VehicleFileError(f"{fname}: key '{key}' = {v:g} is outside the plausible range "
+                               f"[{lo:g}, {hi:g}] for a road vehicle (SI units)")
+    return v
+
+
+def _unknown_keys(table: dict, allowed, fname, prefix=""):
+    for k in table:
+        if k not in allowed:
+            raise VehicleFileError(f"{fname}: unknown key '{prefix}{k}' (expected one of "
+                                   f"{', '.join(allowed)})")
+
+
 def _num(doc, key, fname, positive=True, default=None, allow_zero=False):
     parts = key.split(".")
     cur = doc
@@ -130,7 +166,7 @@ def _num(doc, key, fname, positive=True, default=None, allow_zero=False):
     if positive and not (v > 0 or (allow_zero and v == 0)):
         rel = ">= 0" if allow_zero else "> 0"
         raise VehicleFileError(f"{fname}: key '{key}' must be a number {rel}, got {cur!r}")
-    return v
+    return _in_range(v, key, fname)
 
 
 def _tyre(doc, sect, fname):
@@ -140,6 +176,8 @@ def _tyre(doc, sect, fname):
     if not isinstance(t, dict):
         raise VehicleFileError(f"{fname}: key '{sect}' must be a table")
     model = t.get("model", "pacejka")
+    if model in TYRE_KEYS:
+        _unknown_keys(t, TYRE_KEYS[model], fname, f"{sect}.")
     if model == "pacejka":
         E = _num(doc, f"{sect}.E", fname, positive=False, default=0.0)
         if E >= 1.0:
@@ -167,6 +205,7 @@ def load_vehicle(path) -> Vehicle:
         raise VehicleFileError(f"{fname}: cannot read ({exc})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise VehicleFileError(f"{fname}: not valid TOML ({exc})") from exc
+    _unknown_keys(doc, TOP_KEYS, fname)
     name = doc.get("name", p.stem)
     if not isinstance(name, str):
         raise VehicleFileError(f"{fname}: key 'name' must be a string, got {name!r}")
@@ -199,6 +238,8 @@ def load_vehicle(path) -> Vehicle:
                                    f"be < 'uncertainty.vx_max' ({unc['vx_max']})")
     kal = None
     if "kalman" in doc:
+        if not isinstance(doc["kalman"], dict):
+            raise VehicleFileError(f"{fname}: key 'kalman' must be a table")
         keys = ("q_vy", "q_r", "q_b", "R_r", "R_ay")
         for k in doc["kalman"]:
             if k not in keys:

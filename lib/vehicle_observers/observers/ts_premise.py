@@ -271,6 +271,10 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
         raise
     except InfeasibleDesign as exc:
         diag = diagnose_infeasible(ts, alpha, scale, disk_radius, p_max)
+        if diag["worst"] is None:
+            raise InfeasibleDesign(f"{exc}. Diagnosis: the relaxed problem could not be solved "
+                                   f"either (badly scaled or non-finite model data)",
+                                   status=exc.status) from exc
         k = int(diag["worst"].split("[")[1].rstrip("]")) - 1
         zv = ", ".join(f"{pr.name.split(' ')[0]}={v:g}" for pr, v in zip(ts.premises,
                                                                          ts.z_vertices[k]))
@@ -297,9 +301,14 @@ def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
     """Relaxed problem ``min t`` s.t. every LMI of the design ``<= t I`` (same P, M_i, c).
 
     Returns ``{"t": t*, "worst": name}``: ``t* >= 0`` means infeasible; ``worst`` is the LMI
-    (vertex) whose largest eigenvalue attains ``t*`` at the relaxed optimum.
+    (vertex) whose largest eigenvalue attains ``t*`` at the relaxed optimum. When the relaxed
+    problem cannot be solved (solver failure, non-finite data or values) it returns
+    ``worst=None`` and ``t = nan`` instead of raising.
     """
     nr = ts.n_rules
+    unknown = {"t": float("nan"), "worst": None, "largest_eig": float("nan")}
+    if not all(np.all(np.isfinite(ts.A[i])) for i in range(nr)):
+        return unknown                        # NaN/inf model: nothing to diagnose
     S = np.diag(np.asarray(scale, dtype=float))
     Si = np.linalg.inv(S)
     As = [Si @ ts.A[i] @ S for i in range(nr)]
@@ -320,14 +329,23 @@ def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
             D = disk(disk_radius).lmi(P, P @ As[i] - M[i] @ Cs)
             mats[f"disk[{i + 1}]"] = (D, i, "disk")
             cons.append((D + D.T) / 2 << t * np.eye(8))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)   # "solution may be inaccurate": a
-        cp.Problem(cp.Minimize(t), cons).solve(solver="CLARABEL")   # diagnosis only
+    if not all(np.all(np.isfinite(a)) for a in (*As, Cs, Gs)):
+        return unknown
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)   # "solution may be inaccurate": a
+            cp.Problem(cp.Minimize(t), cons).solve(solver="CLARABEL")   # diagnosis only
+    except (cp.error.SolverError, ValueError, ArithmeticError):
+        return unknown                        # the relaxed problem itself fails numerically
     worst, wval = None, -np.inf
     for name, (X, _, _) in mats.items():
+        if X.value is None or not np.all(np.isfinite(X.value)):
+            return unknown
         v = np.linalg.eigvalsh((X.value + X.value.T) / 2)[-1]
         if v > wval:
             worst, wval = name, v
+    if t.value is None:
+        return unknown
     return {"t": float(t.value), "worst": worst, "largest_eig": float(wval)}
 
 
