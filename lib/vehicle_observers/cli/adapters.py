@@ -154,3 +154,66 @@ if _iv is not None:
         vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
                                      "uncertainty.vx_max"),
         interval=True, paper="Ifqir 2017"))
+
+
+# ------------------------------------------------------------------ interval, any car -----
+# ``interval-coordinates``: the same observer (11) in z = T(kappa) x
+# (:mod:`.observers.interval_coordinates`, Raissi, Efimov, Zolghadri 2012), which certifies
+# for neutral-steer and oversteering cars that ``interval-ifqir2017`` refuses. Same bands,
+# epsilon = 1/dt, acceleration bound, measurement bounds and initial box as
+# ``interval-ifqir2017``; kappa picked among the candidates by the smallest certified gamma.
+try:
+    from vehicle_observers.observers import interval_coordinates as _ic
+except ImportError:  # pragma: no cover - module not there
+    _ic = None
+
+
+def coordinate_interval_design(vehicle, dt: float):
+    """Certified design in ``z = T x`` for ``vehicle`` at ``dt``. Returns (design, seconds)."""
+    key = ("coordinates", vehicle.params, tuple(sorted(vehicle.uncertainty.items())),
+           round(dt, 9))
+    if key in _IV_CACHE:
+        return _IV_CACHE[key]
+    rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
+                                               purpose="observer 'interval-coordinates'")
+    p = vehicle.params
+    veh = _iv.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+                               c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
+    bands = _iv.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+    t0 = time.perf_counter()
+    des = _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
+    _IV_CACHE[key] = (des, time.perf_counter() - t0)
+    return _IV_CACHE[key]
+
+
+def _run_interval_coordinates(log, vehicle, **_):
+    cd, sec = coordinate_interval_design(vehicle, log.dt)
+    y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
+    d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
+    r0 = float(log.yaw_rate[0])
+    t0 = time.perf_counter()
+    res = _ic.run(cd, log.dt, log.vx, log.delta - d_noise, log.delta + d_noise, log.yaw_rate,
+                  [-2.0, r0 - 0.6], [2.0, r0 + 0.6], y_noise=y_noise, clip_speed=True)
+    wall = time.perf_counter() - t0
+    mid = 0.5 * (res.x_lo + res.x_hi)
+    cols = {"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
+            "beta_rad": np.arctan2(mid[:, 0], log.vx),
+            "vy_lo_mps": res.x_lo[:, 0], "vy_hi_mps": res.x_hi[:, 0],
+            "yaw_rate_lo_radps": res.x_lo[:, 1], "yaw_rate_hi_radps": res.x_hi[:, 1]}
+    d = cd.design
+    return Estimates("interval-coordinates", log.t, cols, wall, sec, True,
+                     {"y_noise": y_noise, "steer_noise": d_noise, "n_clipped": res.n_clipped,
+                      "substeps": res.substeps, "kappa": cd.kappa, "gamma": d.gamma,
+                      "lmi_margin": d.lmi_margin, "metzler_margin": d.min_metzler_margin,
+                      "certified": cd.certified})
+
+
+if _iv is not None and _ic is not None:
+    register(ObserverSpec(
+        "interval-coordinates",
+        "Ifqir 2017 interval observer (11) in z = T x (Raissi 2012 change of coordinates): "
+        "certified for any car, incl. neutral / oversteer boxes refused by interval-ifqir2017",
+        _run_interval_coordinates,
+        vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
+                                     "uncertainty.vx_max"),
+        interval=True, paper="Ifqir 2017; Raissi, Efimov, Zolghadri 2012"))

@@ -152,8 +152,17 @@ def satory_manoeuvre(duration: float = 60.0, t_start: float = 15.0) -> Manoeuvre
     return Manoeuvre("satory", t, d, v)
 
 
+def ramp_steer_manoeuvre(vx: float = 20.0, delta_max: float = 0.012,
+                        duration: float = 20.0) -> Manoeuvre:
+    """Quasi-steady ramp steer at constant speed (``delta`` from 0 to ``delta_max`` rad over
+    ``duration`` s): nearly steady-state cornering, where yaw rate and lateral acceleration
+    only determine the understeer gradient, not each axle's stiffness."""
+    t = np.arange(0.0, duration, 1.0 / LOG_HZ)
+    return Manoeuvre("ramp_steer", t, delta_max * t / duration, np.full_like(t, float(vx)))
+
+
 MANOEUVRES = {"sine_with_dwell": sine_with_dwell_manoeuvre, "slalom": slalom_manoeuvre,
-              "satory": satory_manoeuvre}
+              "satory": satory_manoeuvre, "ramp_steer": ramp_steer_manoeuvre}
 
 
 def _rk4(f, x, u, p, h):

@@ -5,7 +5,8 @@ Why a change of coordinates
 With the yaw-rate gyro ``C = [0 1]``, entry (2,1) of ``A - L C`` is
 ``(c_r l_r - c_f l_f)/(I_z v_x)`` whatever the gain ``L``, so the error dynamics can be made
 cooperative (Metzler) only for a car that understeers on the whole stiffness box
-(``c_r l_r > c_f l_f``; :meth:`~vehicle_observers.observers.interval.UncertainBicycle.max_metzler_uncertainty`).
+(``c_r l_r > c_f l_f``; ``UncertainBicycle.max_metzler_uncertainty`` in
+:mod:`vehicle_observers.observers.interval`).
 Neutral or oversteering cars, or a box that straddles neutral steer, are refused.
 
 Raissi, Efimov, Zolghadri, "Interval state estimation for a class of nonlinear systems",
