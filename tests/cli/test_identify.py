@@ -3,7 +3,6 @@ from a plant log, and refuses (exit 2, no file) when only a combination is ident
 
 from __future__ import annotations
 
-
 import pytest
 from vehicle_observers.cli import main as cli
 from vehicle_observers.data import plant
