@@ -494,7 +494,7 @@ if __name__ == "__main__":
 # observer certified for every car, 100 % enclosure on matched-model runs, width and
 # enclosure under mismatch; Revs best causal v_y RMSE <= 0.20 m/s.
 
-PLANT_OBSERVERS = ("ekf", "rts", "interval-coordinates")
+PLANT_OBSERVERS = ("ekf", "ukf", "rts", "interval-coordinates")
 PLANT_MANOEUVRES = ("satory", "sine_with_dwell", "slalom")
 REVS_TARGET = 0.20
 
