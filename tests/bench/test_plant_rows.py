@@ -53,3 +53,16 @@ def test_targets_are_computed_from_rows():
     assert t["RTS <= EKF"]["value"] == pytest.approx(0.09 / 0.07) and not t["RTS <= EKF"]["met"]
     enc = t["interval enclosure of v_y (mismatch)"]
     assert enc["value"] == 0.97 and not enc["met"]
+
+
+def test_fig_plant_draws_one_bar_per_row():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    rows = [{"dataset": "plant_a", "observer": "open-loop-linear", "rmse_vy": 0.1},
+            {"dataset": "plant_a", "observer": "ekf", "rmse_vy": 0.05},
+            {"dataset": "plant_b", "observer": "open-loop-linear", "rmse_vy": 0.2},
+            {"dataset": "plant_b", "observer": "ekf", "rmse_vy": 0.3}]
+    fig = suite.fig_plant(rows)
+    heights = sorted(p.get_height() for p in fig.axes[0].patches)
+    assert heights == pytest.approx([0.05, 0.1, 0.2, 0.3])

@@ -666,3 +666,29 @@ def print_plant_section(seed: int = 0, quick: bool = False, revs_best=None, revs
     print(markdown_table(shown, ["dataset", "target", "value", "limit", "met", "detail"]),
           file=file)
     return {"rows": rows, "targets": targets, "interval": ivr}
+
+
+def fig_plant(rows: list[dict]):
+    """Bar chart of v_y RMSE [m/s] per plant manoeuvre and estimator, with the target line
+    0.8 x open loop drawn per manoeuvre (for notebook 07 / the closing note)."""
+    import matplotlib.pyplot as plt
+
+    ds = list(dict.fromkeys(r["dataset"] for r in rows))
+    obs = list(dict.fromkeys(r["observer"] for r in rows))
+    w = 0.8 / len(obs)
+    fig, ax = plt.subplots(figsize=(8, 3.8))
+    for j, o in enumerate(obs):
+        pts = [(i + j * w, r["rmse_vy"]) for i, d in enumerate(ds) for r in rows
+               if r["dataset"] == d and r["observer"] == o and "rmse_vy" in r]
+        ax.bar([p[0] for p in pts], [p[1] for p in pts], w, label=o, color=_color(o, j))
+    for i, d in enumerate(ds):
+        ol = next(r["rmse_vy"] for r in rows if r["dataset"] == d
+                  and r["observer"] == "open-loop-linear")
+        ax.hlines(0.8 * ol, i - w / 2, i + 0.8 - w / 2, colors="k", linestyles=":", lw=1)
+    ax.set_xticks(np.arange(len(ds)) + 0.4 - w / 2)
+    ax.set_xticklabels([d.replace("plant_", "") for d in ds])
+    ax.set_ylabel("$v_y$ RMSE [m/s]")
+    ax.set_title("Independent multi-body plant (dotted: target 0.8 x open-loop linear)")
+    ax.legend(fontsize=7, ncol=3, loc="upper left", bbox_to_anchor=(0, -0.12))
+    fig.tight_layout()
+    return fig
