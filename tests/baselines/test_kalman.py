@@ -164,3 +164,37 @@ def test_inv3_matches_numpy_and_handles_singular():
         assert np.allclose(K._inv3(A), np.linalg.inv(A), rtol=1e-9, atol=1e-9)
     S = np.diag([1.0, 2.0, 0.0])  # inert bias state with zero variance
     assert np.allclose(K._inv3(S), np.linalg.pinv(S))
+
+
+# ------------------------------------------------------------------ noise floor ------------
+def test_noise_floors_known_answer():
+    rng = np.random.default_rng(1)
+    t = np.arange(0, 60, 0.01)
+    r = 0.2 * np.sin(2 * np.pi * 0.3 * t) + 0.002 * rng.standard_normal(len(t))
+    ay = 3.0 * np.sin(2 * np.pi * 0.3 * t) + 0.05 * rng.standard_normal(len(t))
+    log = DriveLog(t=t, vx=np.full(len(t), 20.0), delta=0.01 * np.sin(t), yaw_rate=r, ay=ay)
+    fl = K.noise_floors(log)
+    assert fl["R_r"] == pytest.approx(K.NOISE_FLOOR_SHARE * 0.002**2, rel=0.1)
+    assert fl["R_ay"] == pytest.approx(K.NOISE_FLOOR_SHARE * 0.05**2, rel=0.1)
+
+
+def test_tuning_cannot_collapse_measurement_noise(satory):
+    """On this 8 s window the unconstrained ML puts R_r and R_ay on the search floor
+    (1e-10, 1e-6: the collapse); with the data floor both stay within a factor 2 of the
+    simulated sensor variances."""
+    seg = satory.segment(10.0, 18.0)
+    free = K.tune(seg, Y.params, maxiter=60, noise_floor=False)
+    assert free.R_r <= 10 ** K.TUNE_BOUNDS[3][0] * 1.01        # the finding
+    tun = K.tune(seg, Y.params, maxiter=60)
+    for got, sd in ((tun.R_r, NOISE_STD["yaw_rate"]), (tun.R_ay, NOISE_STD["ay"])):
+        assert 0.5 * sd**2 <= got <= 2 * sd**2
+
+
+def test_tuning_report_flags_bounds_and_identifiability(satory):
+    seg = satory.segment(10.0, 18.0)
+    free = K.tune(seg, Y.params, maxiter=60, noise_floor=False)
+    rep = K.tuning_report(seg, Y.params, free)
+    assert rep["names"] == ["q_vy", "q_r", "q_b", "R_r", "R_ay"]
+    # the collapsed R_r sits below the data floor, on the search bound
+    assert "R_r" in rep["at_bound"]
+    assert rep["floors"]["R_r"] == pytest.approx(K.noise_floors(K.thin(seg, 10))["R_r"])

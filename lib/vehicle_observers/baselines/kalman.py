@@ -53,6 +53,7 @@ import numpy as np
 from numba import njit
 from scipy.optimize import minimize
 
+from vehicle_observers.data.identification import white_noise_std
 from vehicle_observers.data.logs import DriveLog, despike
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.vehicle import KalmanTuning
@@ -497,9 +498,26 @@ def thin(log: DriveLog, every: int) -> DriveLog:
 TUNE_BOUNDS = ((-8.0, 2.0), (-8.0, 1.0), (-6.0, 1.0), (-10.0, 0.0), (-6.0, 2.0))
 
 
+#: measurement variances are bounded below by this share of the channel's white-noise
+#: variance estimated from the data (second differences, robust): the estimate carries
+#: 10-20 % error and some signal content, so half of it still keeps ML from collapsing
+#: R to the search floor (R_r = 1e-10 on a 2e-3 rad/s gyro) while leaving it room.
+NOISE_FLOOR_SHARE = 0.5
+
+
+def noise_floors(log: DriveLog) -> dict:
+    """Lower bounds ``{"R_r": ..., "R_ay": ...}`` [(rad/s)^2, (m/s^2)^2] of the measurement
+    variances from the data: ``NOISE_FLOOR_SHARE * white_noise_std(channel)^2``
+    (:func:`vehicle_observers.data.identification.white_noise_std`)."""
+    out = {"R_r": NOISE_FLOOR_SHARE * white_noise_std(log.yaw_rate) ** 2}
+    if log.ay is not None:
+        out["R_ay"] = NOISE_FLOOR_SHARE * white_noise_std(log.ay) ** 2
+    return out
+
+
 def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None,
          use_ay: bool | None = None, window_s: float | None = None, max_rate_hz: float = 100.0,
-         maxiter: int = 300, progress=None) -> KalmanTuning:
+         maxiter: int = 300, progress=None, noise_floor: bool = True) -> KalmanTuning:
     """Maximum-likelihood noise tuning on the measured channels only.
 
     Minimises the EKF innovation negative log-likelihood of the measured ``[r, a_y]``
@@ -515,20 +533,35 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     the per-sample variance of white sensor noise unchanged and ``q`` is per second, so the
     tuned values apply unchanged at the full rate. Tolerances: 0.01 in log10 of the
     parameters (2 %), 0.05 in NLL. ``progress(i, n)`` is called after each evaluation.
+
+    ``noise_floor=True``: the lower search bounds of ``R_r`` and ``R_ay`` are raised to
+    :func:`noise_floors` of the (thinned) tuning window, so the measurement noise cannot
+    collapse below what the data itself shows (:func:`tuning_report` says which parameters
+    end on a bound and which are poorly determined).
     """
     start = start or KalmanTuning()
     # two starts: the given one and the same with a nearly constant a_y offset (the
     # likelihood has a second basin where b_ay soaks up the a_y noise)
-    starts = (start, replace(start, q_b=1e-5))
+    starts = [start, replace(start, q_b=1e-5)]
     if window_s is not None:
         log = log.segment(log.t[0], log.t[0] + float(window_s))
     every = max(1, int(np.floor(1.0 / (log.dt * max_rate_hz) + 1e-9)))
     log = thin(log, every)
+    if noise_floor:
+        # a third start at the data's own noise level: the likelihood is multimodal and a
+        # start clipped onto the floor can fall into a poorer basin
+        fl = {k: v / NOISE_FLOOR_SHARE for k, v in noise_floors(log).items()}
+        starts.append(replace(start, **fl))
     inp = prepare(log, use_ay)
     Parr = params.as_array()
     P0 = _p0(start.P0, inp)
     free = [0, 1, 2, 3, 4] if inp.use_ay else [0, 1, 3]
-    bounds = [TUNE_BOUNDS[i] for i in free]
+    bounds = [tuple(b) for b in TUNE_BOUNDS]
+    if noise_floor:
+        for i, v in zip((3, 4), noise_floors(log).values()):
+            bounds[i] = (min(max(bounds[i][0], float(np.log10(v))), bounds[i][1] - 0.5),
+                         bounds[i][1])
+    bounds = [bounds[i] for i in free]
     th0 = start.theta()
 
     count = [0]
@@ -557,6 +590,61 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
         th, P0=start.P0,
         source=f"ML on measured channels of {log.source} ({len(inp.t)} samples, "
                f"{'r, a_y' if inp.use_ay else 'r'}; nll={res.fun:.6g}, {res.nit} iterations)")
+
+
+def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
+                  window_s: float | None = None, max_rate_hz: float = 100.0,
+                  step: float = 0.05, poorly: float = 0.5) -> dict:
+    """Identifiability of a noise tuning: the NLL Hessian in ``log10`` of the free
+    parameters by central differences (``step`` decades), ``std_log10 = sqrt(diag(H^-1))``,
+    the parameters on a search bound (:data:`TUNE_BOUNDS` or the data floor of
+    :func:`noise_floors`) and those with ``std_log10 > poorly`` (more than a factor
+    ``10**poorly`` undetermined) or in a direction of a non-positive Hessian eigenvalue.
+    Returns ``{"names", "value", "std_log10", "at_bound", "not_identifiable", "floors",
+    "eig"}``."""
+    if window_s is not None:
+        log = log.segment(log.t[0], log.t[0] + float(window_s))
+    every = max(1, int(np.floor(1.0 / (log.dt * max_rate_hz) + 1e-9)))
+    log = thin(log, every)
+    inp = prepare(log)
+    names = ["q_vy", "q_r", "q_b", "R_r", "R_ay"]
+    free = [0, 1, 2, 3, 4] if inp.use_ay else [0, 1, 3]
+    th0 = tuning.theta()
+    z0 = np.log10(th0[free])
+    Parr, P0 = params.as_array(), _p0(tuning.P0, inp)
+
+    def f(z):
+        th = th0.copy()
+        th[free] = 10.0 ** z
+        return float(_ekf(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, Parr, th,
+                          inp.x0, P0, False)[-1])
+
+    n = len(free)
+    E = np.eye(n) * step
+    f0 = f(z0)
+    H = np.empty((n, n))
+    for i in range(n):
+        H[i, i] = (f(z0 + E[i]) - 2 * f0 + f(z0 - E[i])) / step**2
+    for i, j in ((a, b) for a in range(n) for b in range(a + 1, n)):
+        H[i, j] = H[j, i] = (f(z0 + E[i] + E[j]) - f(z0 + E[i] - E[j]) - f(z0 - E[i] + E[j])
+                             + f(z0 - E[i] - E[j])) / (4 * step**2)
+    w, V = np.linalg.eigh(H)
+    floors = noise_floors(log)
+    lo = [b[0] for b in TUNE_BOUNDS]
+    hi = [b[1] for b in TUNE_BOUNDS]
+    for i, k in ((3, "R_r"), (4, "R_ay")):
+        if k in floors:
+            lo[i] = max(lo[i], float(np.log10(floors[k])))
+    at_bound = [names[i] for i, z in zip(free, z0) if z - lo[i] < 0.05 or hi[i] - z < 0.05]
+    if np.all(w > 0):
+        sd = np.sqrt(np.diag(np.linalg.inv(H)))
+        weak = [names[i] for i, s_ in zip(free, sd) if s_ > poorly]
+    else:
+        sd = np.full(n, np.inf)
+        weak = sorted({names[free[k]] for k in np.flatnonzero(np.abs(V[:, w <= 0]).max(axis=1)
+                                                               > 0.3)})
+    return {"names": [names[i] for i in free], "value": th0[free], "std_log10": sd,
+            "at_bound": at_bound, "not_identifiable": weak, "floors": floors, "eig": w}
 
 
 # ------------------------------------------------------------------ filterpy ------------

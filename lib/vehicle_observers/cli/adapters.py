@@ -228,3 +228,90 @@ register(ObserverSpec(
     vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
                                  "uncertainty.vx_max"),
     interval=True, paper="Ifqir 2017"))
+
+
+# ------------------------------------------------------------------ interval, any car -----
+# ``interval-coordinates``: the same observer (11) in z = T(kappa) x
+# (:mod:`.observers.interval_coordinates`, Raissi, Efimov, Zolghadri 2012), which certifies
+# for neutral-steer and oversteering cars that ``interval-ifqir2017`` refuses. Same bands,
+# epsilon = 1/dt, acceleration bound, measurement bounds, initial box, real timestamps and
+# low-speed / gap handling as ``interval-ifqir2017``; kappa picked among the candidates by the
+# smallest certified gamma.
+
+
+def coordinate_interval_design(vehicle, dt: float):
+    """Certified design in ``z = T x`` for ``vehicle`` at ``dt``. Returns (design, seconds)."""
+    from vehicle_observers.observers import interval as _iv
+    from vehicle_observers.observers import interval_coordinates as _ic
+
+    key = ("coordinates", vehicle.params, tuple(sorted(vehicle.uncertainty.items())),
+           round(dt, 9))
+    if key in _IV_CACHE:
+        return _IV_CACHE[key]
+    rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
+                                               purpose="observer 'interval-coordinates'")
+    p = vehicle.params
+    veh = _iv.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+                               c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
+    bands = _iv.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+    t0 = time.perf_counter()
+    des = _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
+    _IV_CACHE[key] = (des, time.perf_counter() - t0)
+    return _IV_CACHE[key]
+
+
+def _coordinates_real_dt(cd, t, vx, u_lo, u_hi, y, x0_lo, x0_hi, y_noise):
+    """:func:`interval_real_dt` for the coordinate-change observer (one call per run of
+    equal steps, each started from the box the previous one reached)."""
+    from vehicle_observers.observers import interval_coordinates as _ic
+
+    N = len(t)
+    xl, xh = np.empty((N, 2)), np.empty((N, 2))
+    lo, hi = np.asarray(x0_lo, float), np.asarray(x0_hi, float)
+    for a, b, dt in dt_runs(t):
+        sl = slice(a, b + 1)
+        res = _ic.run(cd, dt if dt > 0 else 1.0, vx[sl], u_lo[sl], u_hi[sl], y[sl], lo, hi,
+                      y_noise=y_noise, clip_speed=True)
+        xl[sl], xh[sl] = res.x_lo, res.x_hi
+        lo, hi = res.x_lo[-1], res.x_hi[-1]
+    return xl, xh
+
+
+def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+    cd, sec = coordinate_interval_design(vehicle, log.dt)
+    y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
+    d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
+
+    def one(sub, a):
+        r0 = float(sub.yaw_rate[0])
+        t0 = time.perf_counter()
+        lo, hi = _coordinates_real_dt(cd, sub.t, sub.vx, sub.delta - d_noise,
+                                      sub.delta + d_noise, sub.yaw_rate, [-2.0, r0 - 0.6],
+                                      [2.0, r0 + 0.6], y_noise)
+        wall = time.perf_counter() - t0
+        mid = 0.5 * (lo + hi)
+        return ({"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
+                 "beta_rad": np.arctan2(mid[:, 0], sub.vx),
+                 "vy_lo_mps": lo[:, 0], "vy_hi_mps": hi[:, 0],
+                 "yaw_rate_lo_radps": lo[:, 1], "yaw_rate_hi_radps": hi[:, 1]}, wall)
+
+    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_mps",
+                   "yaw_rate_lo_radps", "yaw_rate_hi_radps")
+    one.r_noise = y_noise
+    cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
+                                           max_gap, progress)
+    d = cd.design
+    return Estimates("interval-coordinates", log.t, cols, wall, sec, True,
+                     {"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
+                      "kappa": cd.kappa, "gamma": d.gamma, "lmi_margin": d.lmi_margin,
+                      "metzler_margin": d.min_metzler_margin, "certified": cd.certified})
+
+
+register(ObserverSpec(
+    "interval-coordinates",
+    "Ifqir 2017 interval observer (11) in z = T x (Raissi 2012 change of coordinates): "
+    "certified for any car, incl. neutral / oversteer boxes refused by interval-ifqir2017",
+    _run_interval_coordinates,
+    vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
+                                 "uncertainty.vx_max"),
+    interval=True, paper="Ifqir 2017; Raissi, Efimov, Zolghadri 2012"))

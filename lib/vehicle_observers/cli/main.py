@@ -5,6 +5,8 @@
         --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
         [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
+    python -m vehicle_observers identify LOG.csv --out VEHICLE.toml --mass M --inertia IZ \\
+        --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no]
 
 ``tune`` prints the ML noise tuning of the Kalman observers as a ``[kalman]`` TOML table:
 append it to the vehicle file to skip the tuning in later runs.
@@ -75,6 +77,7 @@ def _parser():
     tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
                                      "a [kalman] table for the vehicle file")
     _add_common(tu)
+    _identify_parser(sub)
     g = e.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
@@ -300,6 +303,8 @@ def _run(args):
             return cmd_observers()
         if args.cmd == "tune":
             return cmd_tune(args)
+        if args.cmd == "identify":
+            return cmd_identify(args)
         return cmd_estimate(args)
     except _input_errors() as exc:
         from vehicle_observers.core.errors import InfeasibleDesign
@@ -309,6 +314,69 @@ def _run(args):
             lmi = f" (LMI {exc.lmi})" if getattr(exc, "lmi", None) else ""
             msg = f"observer {getattr(args, 'observer', 'tune')!r}: design infeasible{lmi}: {msg}"
         raise CLIError(msg) from None
+
+
+def _identify_parser(sub):
+    i = sub.add_parser("identify", help="cornering stiffness per axle (and friction past 0.5 g) "
+                                        "from a log's measured channels; writes a vehicle TOML")
+    i.add_argument("log")
+    i.add_argument("--out", required=True, help="vehicle TOML to write")
+    for flag, what in (("--mass", "m [kg]"), ("--inertia", "I_z [kg m^2]"),
+                       ("--a-f", "CG to front axle [m]"), ("--a-r", "CG to rear axle [m]")):
+        i.add_argument(flag, type=float, required=True, help=what)
+    i.add_argument("--name", default=None, help="vehicle name (default: the log's file name)")
+    i.add_argument("--channels", default="yaw_rate,ay",
+                   help="measured channels to fit: yaw_rate and/or ay (default both)")
+    i.add_argument("--nonlinear", choices=("auto", "yes", "no"), default="auto",
+                   help="fit the friction peak mu: auto = only if max|a_y| >= 0.5 g")
+
+
+def cmd_identify(args, out=None):
+    """``identify``: :func:`vehicle_observers.data.identification.identify_stiffness` on the
+    measured steering, speed, yaw rate and lateral acceleration (never the reference v_y);
+    prints the estimates with 95 % intervals; writes ``--out`` only when every parameter is
+    identifiable (else exit 2 naming the combination that is)."""
+    out = out or sys.stdout
+    import os
+    import tempfile
+
+    from vehicle_observers.core.errors import LogFormatError
+    from vehicle_observers.data import identification as idf
+    from vehicle_observers.data.logs import load_log
+    from vehicle_observers.models.vehicle import VehicleFileError, load_vehicle
+
+    chans = tuple(c.strip() for c in args.channels.split(",") if c.strip())
+    try:
+        log = load_log(args.log, min_vx=1.0)
+        fit = idf.identify_stiffness(log, args.mass, args.inertia, args.a_f, args.a_r,
+                                     channels=chans,
+                                     nonlinear={"auto": "auto", "yes": True, "no": False}[
+                                         args.nonlinear])
+    except (LogFormatError, ValueError) as exc:
+        raise CLIError(str(exc).splitlines()[0]) from None
+    for n, v, lo, hi in zip(fit.names, fit.value, fit.ci_lo, fit.ci_hi):
+        print(f"{n} = {v:.6g}  95% CI [{lo:.6g}, {hi:.6g}]", file=out)
+    print("noise std (from the data): " + ", ".join(f"{c} {v:.3g}" for c, v in
+                                                    fit.noise_std.items()), file=out)
+    if not fit.identifiable:
+        raise CLIError(fit.message)
+    name = args.name or Path(args.log).name
+    text = idf.vehicle_toml(fit, name, (float(log.vx.min()), float(log.vx.max())),
+                            source=Path(args.log).name)
+    dst = Path(args.out)
+    fd, tmp = tempfile.mkstemp(dir=dst.parent if str(dst.parent) else ".", suffix=".toml")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        load_vehicle(tmp)                      # the other commands must accept it
+        os.replace(tmp, dst)
+    except VehicleFileError as exc:
+        raise CLIError(f"identified values do not make a valid vehicle file: {exc}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    print(f"{fit.message}\nwrote {dst}", file=out)
+    return 0
 
 
 def main(argv=None) -> int:

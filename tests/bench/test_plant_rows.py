@@ -1,0 +1,68 @@
+"""Independent-plant benchmark helpers: the stiffness box the plant needs (known answer),
+the open-loop linear reference, and targets computed from the rows (never typed)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from vehicle_observers.bench import suite
+from vehicle_observers.data.logs import DriveLog
+from vehicle_observers.models.lateral import simulate_s1
+
+
+def _linear_log(scale_f=1.0, scale_r=1.0):
+    veh = suite.plant_vehicle()
+    p = veh.params
+    t = np.arange(0, 10, 0.01)
+    d = 0.03 * np.sin(2 * np.pi * 0.5 * t)
+    vx = np.full_like(t, 20.0)
+    from dataclasses import replace
+
+    from vehicle_observers.models.tires import LinearTire
+    true = replace(p, tire_f=LinearTire(scale_f * p.tire_f.cornering_stiffness),
+                   tire_r=LinearTire(scale_r * p.tire_r.cornering_stiffness))
+    X = simulate_s1([0.0, 0.0], d, vx, 0.01, true, exact=False, relaxation=False, substeps=4)
+    ex = {"vx_true_mps": vx, "yaw_rate_true_radps": X[:, 1], "delta_true_rad": d}
+    return DriveLog(t=t, vx=vx, delta=d, yaw_rate=X[:, 1], vy=X[:, 0], Ff=X[:, 2], Fr=X[:, 3],
+                    extra=ex), p
+
+
+def test_stiffness_box_known_answer():
+    log, p = _linear_log(0.8, 1.15)
+    box = suite.plant_stiffness_box(log, p)
+    assert box["cf_ratio_min"] == pytest.approx(0.8, rel=1e-9)
+    assert box["cf_ratio_max"] == pytest.approx(0.8, rel=1e-9)
+    assert box["cr_ratio_min"] == pytest.approx(1.15, rel=1e-9)
+
+
+def test_open_loop_linear_is_exact_on_its_own_model():
+    log, p = _linear_log()
+    assert np.abs(suite.open_loop_linear(log, p) - log.vy).max() < 1e-9
+
+
+def test_targets_are_computed_from_rows():
+    rows = [{"dataset": "d", "observer": "open-loop-linear", "rmse_vy": 0.10,
+             "cf_ratio_min": 0.9, "cf_ratio_max": 1.1, "cr_ratio_min": 0.9, "cr_ratio_max": 1.1},
+            {"dataset": "d", "observer": "ekf", "rmse_vy": 0.07},
+            {"dataset": "d", "observer": "rts", "rmse_vy": 0.09},
+            {"dataset": "d", "observer": "interval-coordinates", "rmse_vy": 0.2,
+             "enclosure_vy": 0.97, "width_vy": 0.3}]
+    t = {x["target"]: x for x in suite.plant_targets(rows)}
+    best = t["best observer <= 0.8 x open loop"]
+    assert best["value"] == pytest.approx(0.7) and best["met"] and "ekf" in best["detail"]
+    assert t["RTS <= EKF"]["value"] == pytest.approx(0.09 / 0.07) and not t["RTS <= EKF"]["met"]
+    enc = t["interval enclosure of v_y (mismatch)"]
+    assert enc["value"] == 0.97 and not enc["met"]
+
+
+def test_fig_plant_draws_one_bar_per_row():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    rows = [{"dataset": "plant_a", "observer": "open-loop-linear", "rmse_vy": 0.1},
+            {"dataset": "plant_a", "observer": "ekf", "rmse_vy": 0.05},
+            {"dataset": "plant_b", "observer": "open-loop-linear", "rmse_vy": 0.2},
+            {"dataset": "plant_b", "observer": "ekf", "rmse_vy": 0.3}]
+    fig = suite.fig_plant(rows)
+    heights = sorted(p.get_height() for p in fig.axes[0].patches)
+    assert heights == pytest.approx([0.05, 0.1, 0.2, 0.3])
