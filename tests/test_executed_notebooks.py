@@ -107,14 +107,14 @@ def _param(name: str, mode: str):
 
 # ---------------------------------------------------------------- the checker itself ----------
 
-def _png_bytes(fig_dir: Path, name: str) -> bytes:
+def _png_bytes(fig_dir: Path, name: str, slope: float = 1.0) -> bytes:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(2, 1))
-    ax.plot([0, 1], [0, 1])
+    ax.plot([0, 1], [0, slope])
     fig.savefig(fig_dir / f"{name}.png")
     plt.close(fig)
     return (fig_dir / f"{name}.png").read_bytes()
@@ -140,7 +140,7 @@ def test_checker_accepts_a_notebook_that_shows_its_figure(tmp_path):
 
 def test_checker_rejects_a_saved_but_not_shown_figure(tmp_path):
     _png_bytes(tmp_path, "fig1")
-    png = base64.b64encode(_png_bytes(tmp_path, "other")).decode()
+    png = base64.b64encode(_png_bytes(tmp_path, "other", slope=-1.0)).decode()
     nb = _executed([[new_output("display_data", data={"image/png": png})]])
     assert output_problems(nb, ["fig1"], tmp_path) == []  # one image for one figure: count holds
     problems = output_problems(nb, ["fig1", "fig2"], tmp_path)
@@ -184,7 +184,8 @@ def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
 def test_full_executed_notebook_shows_its_figures(name):
     executed = FULL_BUILD / f"{name}.ipynb"
     if not executed.exists():
-        pytest.skip(f"{name}: no full-mode executed copy in build/notebooks/ (run `make figures`)")
+        pytest.skip("no full-mode executed copy in build/notebooks/ (run `make figures` or "
+                    "`make html` first to check them)")
     nb = nbformat.read(str(executed), as_version=4)
     params = nb.metadata.get("papermill", {}).get("parameters", {})
     current = nbformat.read(str(ROOT / "notebooks" / f"{name}.ipynb"), as_version=4)
@@ -196,3 +197,19 @@ def test_full_executed_notebook_shows_its_figures(name):
         fig_dir = ROOT / "figures" / name
     problems = output_problems(nb, saved_figures(fig_dir / "metrics.json"), fig_dir)
     assert not problems, f"{name} (full): " + "; ".join(problems)
+
+
+# ---------------------------------------------------------------- HTML for lecturers ----------
+
+def test_html_of_an_executed_notebook_embeds_its_figures(tmp_path):
+    png = _png_bytes(tmp_path, "fig1")
+    nb = _executed([[new_output("display_data", data={"image/png": base64.b64encode(png).decode()})]])
+    nb.cells.insert(0, nbformat.v4.new_markdown_cell("# Observer $\\hat x$"))
+    nbformat.write(nb, str(tmp_path / "01_demo.ipynb"))
+    (out,) = pipeline.write_html([tmp_path / "01_demo.ipynb"], tmp_path / "html")
+    assert out == tmp_path / "html" / "01_demo.html"
+    html = out.read_text(encoding="utf-8")
+    assert html.count(f"data:image/png;base64,{base64.b64encode(png).decode()}") == 1
+    assert "Observer" in html and "<title>01_demo</title>" in html
+    with pytest.raises(FileNotFoundError, match="02_missing.ipynb"):
+        pipeline.write_html([tmp_path / "02_missing.ipynb"], tmp_path / "html")

@@ -88,6 +88,7 @@ def lab_env(settings_dir: Path) -> dict:
         p.write_text(json.dumps(value))
     env["JUPYTERLAB_SETTINGS_DIR"] = str(settings_dir / "settings")
     env["JUPYTERLAB_WORKSPACES_DIR"] = str(settings_dir / "workspaces")
+    env["JUPYTER_RUNTIME_DIR"] = str(settings_dir / "runtime")
     return env
 
 
