@@ -243,11 +243,14 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic
 
 
 def chromium_path() -> str | None:
-    """The system Chromium (Debian package ``chromium``), or None."""
+    """The system Chromium (Debian package ``chromium``), or None; ``VO_CHROMIUM`` names
+    another binary (and only that one is tried)."""
     import shutil
 
-    for p in (os.environ.get("VO_CHROMIUM"), CHROMIUM, shutil.which("chromium"),
-              shutil.which("chromium-browser")):
+    chosen = os.environ.get("VO_CHROMIUM")
+    candidates = [chosen] if chosen else [CHROMIUM, shutil.which("chromium"),
+                                          shutil.which("chromium-browser")]
+    for p in candidates:
         if p and os.access(p, os.X_OK):
             return p
     return None
