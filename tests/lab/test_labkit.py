@@ -35,3 +35,24 @@ def test_lab_problems():
         "04: widget error placeholder: Error displaying widget"]
     assert lab_problems("04", [], 0, None) == [
         "04: wrote no metrics.json (the run did not reach rep.write())"]
+
+
+def test_xdist_groups_share_a_worker(tmp_path):
+    """``make test`` runs ``-n 2 --dist loadgroup``: tests of one ``xdist_group`` (the Lab
+    server's, a notebook's) must run on one worker, or the server and the notebooks are started
+    twice (pytest 9.2 with xdist 3.8 silently drops the groups; pytest is pinned to 9.1)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "test_a.py").write_text(
+        "import pytest\npytestmark = pytest.mark.xdist_group('g1')\n"
+        + "".join(f"def test_{i}():\n    pass\n" for i in range(4)))
+    (tmp_path / "test_b.py").write_text(
+        "import pytest\n@pytest.mark.parametrize('x', [pytest.param(1, marks="
+        "pytest.mark.xdist_group('g1')), 2, 3])\ndef test_b(x):\n    pass\n")
+    out = subprocess.run([sys.executable, "-m", "pytest", "-n", "2", "--dist", "loadgroup", "-v",
+                          "-p", "no:cacheprovider", "-p", "no:randomly", str(tmp_path)],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300).stdout
+    workers = {ln.split()[0] for ln in out.splitlines() if "PASSED" in ln and "@g1" in ln}
+    grouped = [ln for ln in out.splitlines() if "PASSED" in ln and "@g1" in ln]
+    assert len(grouped) == 5 and len(workers) == 1, out[-2000:]
