@@ -1,16 +1,26 @@
 # Two commands do all the set-up on a fresh machine with only python3:
 #   make figures   -> creates .venv from environment.txt if needed, regenerates every figure
 #   make test      -> same bootstrap, then the whole test suite (notebooks in quick mode)
-# Extras: make lab (JupyterLab on notebooks/), make bench (speed + accuracy benchmark), make lint.
+# Extras: make lab (JupyterLab on notebooks/; extra options in LAB_ARGS, e.g.
+#   make lab LAB_ARGS="--no-browser --port 8890"; --allow-root is added when run as root;
+#   LAB_DIR=<folder> serves another folder),
+#   make html (figures + rendered HTML of the executed notebooks in build/html/),
+#   make bench (speed + accuracy benchmark), make lint.
+# The browser test (tests/lab/) needs the system Chromium: apt-get install -y chromium.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 KERNEL := vehicle-observers
-export MPLBACKEND := Agg
+LAB_ARGS ?=
+LAB_DIR  ?= notebooks
+ROOT_ARGS := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root)
 export PYTHONHASHSEED := 0
 
-.PHONY: figures test lab bench lint env clean
+.PHONY: figures html test lab bench lint env clean
+
+# Headless targets draw with Agg; `make lab` does not set it, so its kernels render inline.
+figures html test bench: export MPLBACKEND := Agg
 
 env: $(STAMP)
 
@@ -25,11 +35,14 @@ $(STAMP): environment.txt pyproject.toml
 figures: $(STAMP)
 	$(BIN)/python -m vehicle_observers.results.pipeline --figures figures --build build/notebooks
 
+html: $(STAMP)
+	$(BIN)/python -m vehicle_observers.results.pipeline --figures figures --build build/notebooks --html build/html
+
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup
 
 lab: $(STAMP)
-	$(BIN)/jupyter lab --notebook-dir=notebooks
+	$(BIN)/jupyter lab --notebook-dir=$(LAB_DIR) $(ROOT_ARGS) $(LAB_ARGS)
 
 bench: $(STAMP)
 	$(BIN)/python -m vehicle_observers.bench

@@ -15,7 +15,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 
 def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
-    """Run ``notebooks/<name>.ipynb`` (quick mode) and return its metrics plus ``_dir``."""
+    """Run ``notebooks/<name>.ipynb`` (quick mode) and return its metrics plus ``_dir`` (its
+    figures) and ``_executed`` (the executed copy)."""
     from vehicle_observers.results.pipeline import run_notebook
 
     nb = ROOT / "notebooks" / f"{name}.ipynb"
@@ -24,6 +25,7 @@ def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
     run_notebook(nb, tmp_path / "build" / nb.name, figs, seed=seed, quick=True, timeout=900)
     m = load_metrics(figs / name / "metrics.json")
     m["_dir"] = figs / name
+    m["_executed"] = tmp_path / "build" / nb.name
     committed = ROOT / "figures" / name / "metrics.json"
     if committed.exists():  # quick mode must write the same files as the committed full run
         want = load_metrics(committed)["_doc"]["files"]
@@ -33,9 +35,11 @@ def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
     return m
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def run_notebook(tmp_path_factory):
-    """``run_notebook(name)`` -> metrics dict of a quick-mode execution (cached per module)."""
+    """``run_notebook(name)`` -> metrics dict of a quick-mode execution (cached per test
+    session, so the notebook tests and ``test_executed_notebooks.py`` share one run; with
+    xdist both carry the notebook's ``xdist_group``). ``_executed``: the executed copy."""
     cache = {}
 
     def _run(name: str, seed: int = 0):

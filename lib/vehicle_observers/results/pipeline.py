@@ -2,13 +2,15 @@
 
     python -m vehicle_observers.results.pipeline [--quick] [--seed 0] [--only 01,03]
                                          [--figures figures] [--build build/notebooks]
-                                         [--timeout 1200]
+                                         [--timeout 1200] [--html build/html]
 
 Notebooks run in name order with parameters ``seed``, ``quick`` and ``figures_dir``; the
 executed copies go to ``--build`` (ignored by git) for inspection. On a failing cell the
 run stops with the notebook name, the cell number and the error, and keeps the partial
 executed copy. After a full run, ``REPRODUCTION.md`` is rebuilt from the claims every
-notebook wrote into ``figures/<notebook>/metrics.json``.
+notebook wrote into ``figures/<notebook>/metrics.json``. With ``--html DIR`` the executed
+copies of the same run are also rendered to ``DIR/<notebook>.html`` (nbconvert, JupyterLab look,
+figures embedded) for reading without a kernel (``make html``).
 """
 
 from __future__ import annotations
@@ -53,6 +55,27 @@ def run_notebook(nb: Path, out: Path, figures_dir: Path, seed: int = 0, quick: b
                     "figures_dir": str(figures_dir.resolve())},
         kernel_name=kernel or kernel_name(), cwd=str(nb.parent), execution_timeout=timeout,
         progress_bar=False, log_output=False, request_save_on_cell_execute=False)
+
+
+def write_html(executed: list[Path], out_dir: Path) -> list[Path]:
+    """Render executed notebooks to standalone HTML (``out_dir/<notebook>.html``) with
+    nbconvert's ``lab`` template; image outputs are embedded, the input cells kept.
+    Raises ``FileNotFoundError`` naming a missing executed copy."""
+    import nbformat
+    from nbconvert import HTMLExporter
+
+    exporter = HTMLExporter(template_name="lab", embed_images=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for nb in executed:
+        if not nb.exists():
+            raise FileNotFoundError(f"executed notebook {nb} not found (run the pipeline first)")
+        body, _ = exporter.from_notebook_node(nbformat.read(str(nb), as_version=4),
+                                              resources={"metadata": {"name": nb.stem}})
+        path = out_dir / f"{nb.stem}.html"
+        path.write_text(body, encoding="utf-8")
+        written.append(path)
+    return written
 
 
 def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -> Path:
@@ -113,6 +136,7 @@ def main(argv=None) -> int:
     ap.add_argument("--figures", default="figures")
     ap.add_argument("--build", default="build/notebooks")
     ap.add_argument("--timeout", type=int, default=1200, help="per-cell timeout [s]")
+    ap.add_argument("--html", default="", help="also render the executed copies to HTML here")
     args = ap.parse_args(argv)
     from tqdm import tqdm
 
@@ -147,6 +171,10 @@ def main(argv=None) -> int:
             return 1
         times[nb.stem] = time.perf_counter() - t0
     bar.close()
+    if args.html:
+        html = Path(args.html) if Path(args.html).is_absolute() else root / args.html
+        for p in write_html([build / nb.name for nb in nbs], html):
+            print(f"wrote {p}")
     for k, v in times.items():
         print(f"  {k:<32} {v:7.1f} s")
     if not args.only and not args.quick and figures.resolve() == (root / "figures").resolve():
