@@ -5,6 +5,7 @@
 #   make lab LAB_ARGS="--no-browser --port 8890"; --allow-root is added when run as root;
 #   LAB_DIR=<folder> serves another folder),
 #   make html (figures + rendered HTML of the executed notebooks in build/html/),
+#   make check (regenerate into build/check and compare with the committed metrics and verdicts),
 #   make bench (speed + accuracy benchmark), make lint.
 # The browser test (tests/lab/) needs the system Chromium: apt-get install -y chromium.
 PYTHON ?= python3
@@ -17,10 +18,10 @@ LAB_DIR  ?= notebooks
 ROOT_ARGS := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root)
 export PYTHONHASHSEED := 0
 
-.PHONY: figures html test lab bench lint env clean
+.PHONY: figures html check test lab bench lint env clean
 
 # Headless targets draw with Agg; `make lab` does not set it, so its kernels render inline.
-figures html test bench: export MPLBACKEND := Agg
+figures html check test bench: export MPLBACKEND := Agg
 
 env: $(STAMP)
 
@@ -37,6 +38,9 @@ figures: $(STAMP)
 
 html: $(STAMP)
 	$(BIN)/python -m vehicle_observers.results.pipeline --figures figures --build build/notebooks --html build/html
+
+check: $(STAMP)
+	$(BIN)/python -m vehicle_observers.results.check
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup

@@ -38,14 +38,7 @@ _NP_SCALAR_RE = re.compile(r"\bnp\.(?:float|int|uint|complex|bool|longdouble|str
 
 #: notebooks that fail the check today: {(notebook, mode): reason}; strict, so an entry must go
 #: as soon as its notebook is fixed
-_PATH_END = "a cell ends in rep.write(), whose PosixPath of metrics.json is shown"
-_KNOWN = {
-    "02_premise_estimation": _PATH_END,
-    "04_bicycle_dmvt": "np.float64 reprs in printed dicts (cells 5, 22); " + _PATH_END,
-    "05_sliding_mode_observers": "np.float64 reprs in a printed metrics dict; " + _PATH_END,
-    "06_relaxed_uio": "FuzzyTyres dataclass repr with np.float64 fields; " + _PATH_END,
-    "07_benchmark": _PATH_END,
-}
+_KNOWN: dict[str, str] = {}
 KNOWN_FAILURES: dict[tuple[str, str], str] = {
     (nb, mode): f"{nb}: {why}" for nb, why in _KNOWN.items() for mode in ("quick", "full")}
 

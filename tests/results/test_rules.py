@@ -99,7 +99,8 @@ def test_report_computes_stores_and_writes(tmp_path):
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])
     assert rep.savefig(fig, "fig") is None
-    path = rep.write()
+    assert rep.write() is None
+    path = rep.metrics_path
     doc = json.loads(path.read_text())
     c = doc["claims"][0]
     assert c["verdict"] == "reproduced" and c["proves_little"] and "value <= 1" in c["rule"]

@@ -710,6 +710,33 @@ def print_plant_section(seed: int = 0, quick: bool = False, revs_best=None, revs
     return {"rows": rows, "targets": targets, "interval": ivr}
 
 
+def plant_metrics(rows: list[dict], cert_rows: list[dict]) -> dict:
+    """Flat metrics of the independent-plant section for notebook 07 (identifier names, so
+    that rules can use them): per manoeuvre ``plant_<m>_<observer>_rmse_vy`` [m/s] (and the
+    interval observer's ``_enclosure_vy`` / ``_width_vy``), ``plant_<m>_best_over_open_loop``
+    (best project observer / open-loop linear bicycle), ``plant_<m>_rts_over_ekf``; over the
+    cars of :func:`interval_certification_rows`: ``interval_cars``, ``interval_certified_cars``,
+    ``interval_min_matched_enclosure``."""
+    out = {}
+    for ds in dict.fromkeys(r["dataset"] for r in rows):
+        rr = {r["observer"]: r for r in rows if r["dataset"] == ds}
+        key = ds.replace("plant_", "")
+        for o, r in rr.items():
+            name = f"plant_{key}_{o.replace('-', '_')}"
+            for k in ("rmse_vy", "enclosure_vy", "width_vy"):
+                if k in r and np.isfinite(r[k]):
+                    out[f"{name}_{k}"] = float(r[k])
+        ol = rr["open-loop-linear"]["rmse_vy"]
+        best = min(r["rmse_vy"] for o, r in rr.items() if o != "open-loop-linear" and "rmse_vy" in r)
+        out[f"plant_{key}_best_over_open_loop"] = best / ol
+        if "rts" in rr and "ekf" in rr:
+            out[f"plant_{key}_rts_over_ekf"] = rr["rts"]["rmse_vy"] / rr["ekf"]["rmse_vy"]
+    out["interval_cars"] = len(cert_rows)
+    out["interval_certified_cars"] = int(sum(bool(r["certified"]) for r in cert_rows))
+    out["interval_min_matched_enclosure"] = float(min(r["matched_enclosure"] for r in cert_rows))
+    return out
+
+
 def fig_plant(rows: list[dict]):
     """Bar chart of v_y RMSE [m/s] per plant manoeuvre and estimator, with the target line
     0.8 x open loop drawn per manoeuvre (for notebook 07 / the closing note)."""

@@ -186,8 +186,10 @@ class Report:
         return j
 
     # ------------------------------------------------------------------ output -----------
-    def write(self) -> Path:
-        path = self.dir / "metrics.json"
+    def write(self) -> None:
+        """Write ``metrics.json`` (its path: :attr:`metrics_path`) and the timings. Returns
+        ``None``, so that a notebook cell ending with it shows nothing."""
+        path = self.metrics_path
         doc = {"notebook": self.notebook, "quick": self.quick, "seed": self.seed,
                "metrics": self.metrics, "claims": [c.__dict__ for c in self.claims],
                "files": sorted(self.files + ["metrics.json"])}
@@ -198,7 +200,12 @@ class Report:
             (tdir / f"{self.notebook}.json").write_text(
                 json.dumps({"notebook": self.notebook, "quick": self.quick,
                             "timings": _jsonable(self.timings)}, indent=1) + "\n")
-        return path
+        return None
+
+    @property
+    def metrics_path(self) -> Path:
+        """Where :meth:`write` writes ``metrics.json``."""
+        return self.dir / "metrics.json"
 
     def table(self, rows, columns=None, digits: int = 3):
         """Show rows (list of dicts) as a rounded HTML table in a notebook (text elsewhere)."""
