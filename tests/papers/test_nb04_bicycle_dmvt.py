@@ -375,3 +375,20 @@ def test_segment_figure(setup):
     fig = ds.fig_segment_bounds(cert, jac["jts"], obs["t"], t_max=0.5)
     assert len(fig.axes) == 2 and fig.axes[1].get_xlabel() == "t [s]"
     plt.close(fig)
+
+
+def test_region_explorer_static_and_interactive(setup, capsys, monkeypatch):
+    _, jac, _, _ = setup
+    V = jac["jts"].vertices
+    assert ds.region_explorer(V, C, A_REG, R_REG, r=1, interactive=False) is None
+    shown = []
+    monkeypatch.setattr(ds.plt, "show", lambda fig: shown.append(fig))
+    ui = ds.region_explorer(V, C, A_REG, R_REG, r=1, interactive=True)
+    sliders = {c.description: c for c in ui.children[:2]}
+    assert set(sliders) == {"a [1/s]", "R [1/s]"}
+    # a feasible region redraws the poles (two axes: all pairs and the zoom)
+    assert len(shown) == 1 and len(shown[0].axes) == 2
+    # a disk inside the half-plane's forbidden zone (R < a) cannot hold any pole: reported
+    sliders["a [1/s]"].value = 8.0
+    sliders["R [1/s]"].value = 3.0
+    assert "no certified design" in capsys.readouterr().out

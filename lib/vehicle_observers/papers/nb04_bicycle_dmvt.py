@@ -765,3 +765,32 @@ def fig_region_sweep(sws: dict, a: float, R: float):
     axs[1].set_ylabel("smallest feasible disk radius $R$ [1/s]")
     axs[1].legend()
     return fig
+
+
+# ------------------------------------------------------------------ interactive ------------
+def region_explorer(vertices, C, a0: float, R0: float, r: int = 8, interactive: bool = False):
+    """Sliders for the region (35)-(36): each move re-solves LMIs (23)+(35)+(36) (certified as
+    always) and redraws :func:`fig_poles`. ``interactive=False`` (papermill, quick runs, or no
+    ipywidgets) returns ``None`` and shows nothing: the static figure of ``(a0, R0)`` is the
+    notebook's ``fig_poles``. Returns the ipywidgets container otherwise."""
+    if not interactive:
+        return None
+    try:
+        import ipywidgets as w
+    except ImportError:  # pragma: no cover - ipywidgets is in environment.txt
+        return None
+    from vehicle_observers.core.errors import InfeasibleDesign
+
+    def show(a, R):
+        try:
+            fig = fig_poles(design_observers(vertices, C, a, R, r=r), a, R)
+        except InfeasibleDesign as exc:
+            print(f"a = {a:g}, R = {R:g}: no certified design ({str(exc).splitlines()[0]})")
+            return
+        plt.show(fig)
+
+    sa = w.FloatSlider(value=a0, min=0.0, max=10.0, step=0.5, description="a [1/s]",
+                       continuous_update=False)
+    sR = w.FloatSlider(value=R0, min=3.0, max=30.0, step=0.5, description="R [1/s]",
+                       continuous_update=False)
+    return w.interactive(show, a=sa, R=sR)
