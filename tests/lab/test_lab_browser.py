@@ -83,7 +83,7 @@ def _synthetic(path, show: bool):
                               f"rep = Report({path.stem!r}, {str(path.parent / 'figures')!r}, "
                               f"show={show})\n"
                               "fig, ax = plt.subplots(figsize=(3, 2))\nax.plot([0, 1], [0, 1])\n"
-                              "rep.savefig(fig, 'fig1')\nrep.write()")]
+                              "rep.savefig(fig, 'fig1')\nrep.write();")]
     nbformat.write(nb, str(path))
 
 
