@@ -83,6 +83,9 @@ def test_rounding_and_formatting():
     assert fmt(0.007076869442409314) == "0.00708"
     assert fmt(list(range(20))) == "20 values in [0, 19]"
     assert fmt([1.23456, 2.0]) == "[1.23, 2]"
+    assert fmt({"a": 1.23456}) == "{a: 1.23}"
+    assert fmt({f"k{i}": [1.0] * 5 for i in range(20)}) == "table of 20 entries (metrics.json)"
+    assert fmt(["x" * 20] * 20) == "20 entries (metrics.json)"
 
 
 def test_report_computes_stores_and_writes(tmp_path):

@@ -170,7 +170,13 @@ def round_sig(x, digits: int):
 
 def fmt(x, digits: int = 3) -> str:
     """Short text of a number or vector: 3-4 significant digits, long vectors summarised."""
+    if isinstance(x, dict):
+        text = "{" + ", ".join(f"{k}: {fmt(v, digits)}" for k, v in x.items()) + "}"
+        return text if len(text) <= 160 else f"table of {len(x)} entries (metrics.json)"
     if isinstance(x, (list, tuple)):
+        if not _numeric(x):
+            text = "[" + ", ".join(fmt(v, digits) for v in x) + "]"
+            return text if len(text) <= 160 else f"{len(x)} entries (metrics.json)"
         flat = np.asarray(x, dtype=float).ravel() if _numeric(x) else None
         if flat is not None and flat.size > 6 and np.all(np.isfinite(flat)):
             return (f"{flat.size} values in [{fmt(float(flat.min()), digits)}, "
