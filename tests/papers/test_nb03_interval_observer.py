@@ -318,3 +318,22 @@ def test_figures(name, n_axes, ds, lpv, nl, revs, conv):
         assert len(fig.axes) == n_axes
     finally:
         plt.close(fig)
+
+
+def test_box_explorer_static_and_interactive(log, lpv, monkeypatch):
+    bands = IF.bands
+    assert ist.box_explorer(log, bands, interactive=False) is None
+    shown = []
+    monkeypatch.setattr("IPython.display.display", lambda t: shown.append(t))
+    ui = ist.box_explorer(log, bands, rel_unc0=0.10, interactive=True)
+    assert ui.children[0].description == "box +-" and ui.children[0].value == pytest.approx(0.10)
+    # at the paper's box the slider shows the LPV experiment's own numbers
+    assert len(shown) == 1
+    row = shown[0].rows[0]
+    assert row["enclosure v_y"] == lpv["m"]["enclosure_vy"] == 1.0
+    assert row["mean width v_y [m/s]"] == pytest.approx(lpv["m"]["width_mean_vy"], rel=1e-12)
+    # a wider box: still enclosed, wider intervals
+    ui.children[0].value = 0.2
+    wider = shown[-1].rows[0]
+    assert wider["enclosure v_y"] == 1.0
+    assert wider["mean width v_y [m/s]"] > row["mean width v_y [m/s]"]

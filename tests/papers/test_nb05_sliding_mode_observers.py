@@ -363,3 +363,16 @@ def test_part_b_figures(Bres, P):
                    (rs.fig_road_profile(P, roads=("D",)), 2), (rs.fig_road_measured(Bres), 2)]:
         assert isinstance(fig, plt.Figure)
         assert len(fig.axes) == n
+
+
+def test_knob_explorer_static_and_interactive(truth, monkeypatch):
+    man, Xs = truth
+    assert rs.knob_explorer(man, Xs, interactive=False) is None
+    shown = []
+    monkeypatch.setattr("IPython.display.display", lambda t: shown.append(t))
+    ui = rs.knob_explorer(man, Xs, phi_scale=10.0, noise_scale=0.0, interactive=True)
+    sl = {c.description: c for c in ui.children[:2]}
+    assert sl["log10 phi x"].value == pytest.approx(1.0) and sl["noise x"].value == 0.0
+    # the table shown is knob_run's for the slider values
+    want = repr(rs.knob_run(man, Xs, phi_scale=10.0, noise_scale=0.0))
+    assert len(shown) == 1 and repr(shown[0]) == want

@@ -568,3 +568,38 @@ def fig_intervals_revs(revs: dict, zoom: bool = False):
     return iv.plot_intervals(log.t, {"switched": revs["res"]}, log.vy, log.yaw_rate,
                              "Revs 250 LM: interval observer vs measured v_y (INS) and yaw rate",
                              truth_label="measured")
+
+
+# ------------------------------------------------------------------ interactive ------------
+def box_explorer(log: DriveLog, bands: iv.SpeedBands, rel_unc0: float = 0.10, seed: int = 0,
+                 interactive: bool = False):
+    """Slider for the stiffness box half-width (Assumption 3): each move re-solves Theorem 2
+    (certified) for ``IF.vehicle`` with that box and reruns :func:`lpv_experiment` on ``log``
+    (truth inside the same box), then shows the enclosure and the mean widths of ``v_y`` and
+    ``r`` (switched observer). ``interactive=False`` (papermill, quick runs) returns ``None``
+    and shows nothing; else the ipywidgets container."""
+    if not interactive:
+        return None
+    import dataclasses
+
+    import ipywidgets as w
+    from IPython.display import display
+
+    from vehicle_observers.core.errors import InfeasibleDesign
+    from vehicle_observers.results.tables import show_table
+
+    def show(rel_unc):
+        veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
+        try:
+            des = IF.design(bands, veh)
+            des1 = IF.design(iv.SpeedBands((bands.edges[0], bands.edges[-1])), veh)
+        except InfeasibleDesign as exc:
+            print(f"+-{100 * rel_unc:.0f} %: no certified design ({str(exc).splitlines()[0]})")
+            return
+        m = lpv_experiment(log, des, des1, seed=seed)["m"]
+        display(show_table([{"box": f"+-{100 * rel_unc:.0f} %", "enclosure v_y": m["enclosure_vy"],
+                             "mean width v_y [m/s]": m["width_mean_vy"],
+                             "mean width r [rad/s]": m["width_mean_r"]}]))
+
+    return w.interactive(show, rel_unc=w.FloatSlider(value=rel_unc0, min=0.02, max=0.3, step=0.02,
+                                                     description="box +-", continuous_update=False))
