@@ -35,7 +35,7 @@ def test_make_sets_agg_only_for_headless_targets():
                          "lab"], cwd=ROOT, capture_output=True, text=True,
                         env={**os.environ, "MAKEFLAGS": ""}).stdout
     agg = sorted(ln.split(":")[0] for ln in db.splitlines() if ln.endswith("MPLBACKEND := Agg"))
-    assert agg == ["bench", "figures", "html", "test"]
+    assert agg == ["bench", "check", "figures", "html", "test"]
 
 
 def test_server_offers_the_project_kernel(lab):

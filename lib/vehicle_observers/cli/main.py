@@ -411,5 +411,20 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+def console(argv=None):
+    """Process entry point (``python -m vehicle_observers``, the ``vehicle-observers`` script):
+    :func:`main`, then flush and leave with ``os._exit``. Skipping the interpreter's teardown
+    avoids a native abort ("terminate called without an active exception", exit -6) seen when
+    the process ended while a thread of pyarrow's or numba's pool was still being torn down;
+    everything the command writes is complete (renamed into place) before ``main`` returns."""
+    code = main(argv)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console()
