@@ -170,26 +170,34 @@ def dt_runs(t, rtol=DT_RTOL):
     return [(int(a), int(b), float(d[a:b].mean())) for a, b in zip(brk, ends)]
 
 
-def interval_real_dt(des, t, vx, u_lo, u_hi, y, x0_lo, x0_hi, y_noise):
-    """Ifqir 2017 observer (11) over a log with its real timestamps ``t`` (N,) [s]: one
-    :func:`interval.run_interval_observer` call per run of equal steps (:func:`dt_runs`),
-    each started from the box the previous one reached. Returns (x_lo, x_hi) (N, 2)."""
-    from vehicle_observers.observers import interval as _iv
+def interval_real_dt(des, t, vx, u_lo, u_hi, y, x0_lo, x0_hi, y_noise, run=None):
+    """Ifqir 2017 observer (11) over a log with its real timestamps ``t`` (N,) [s]: one call of
+    ``run`` (default :func:`interval.run_interval_observer`; the coordinate-change observer
+    passes :func:`interval_coordinates.run`) per run of equal steps (:func:`dt_runs`), each
+    started from the box the previous one reached. Returns (x_lo, x_hi) (N, 2)."""
+    if run is None:
+        from vehicle_observers.observers.interval import run_interval_observer as run
 
     N = len(t)
     xl, xh = np.empty((N, 2)), np.empty((N, 2))
     lo, hi = np.asarray(x0_lo, float), np.asarray(x0_hi, float)
     for a, b, dt in dt_runs(t):
         sl = slice(a, b + 1)
-        res = _iv.run_interval_observer(des, dt if dt > 0 else 1.0, vx[sl], u_lo[sl], u_hi[sl],
-                                        y[sl], lo, hi, y_noise=y_noise, clip_speed=True)
+        res = run(des, dt if dt > 0 else 1.0, vx[sl], u_lo[sl], u_hi[sl], y[sl], lo, hi,
+                  y_noise=y_noise, clip_speed=True)
         xl[sl], xh[sl] = res.x_lo, res.x_hi
         lo, hi = res.x_lo[-1], res.x_hi[-1]
     return xl, xh
 
 
-def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
-    des, sec = interval_design(vehicle, log.dt)
+INTERVAL_COLUMNS = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_mps",
+                    "yaw_rate_lo_radps", "yaw_rate_hi_radps")
+
+
+def _interval_stretches(des, log, vehicle, max_gap, progress, run=None):
+    """Run an interval observer over the moving stretches of ``log`` (real timestamps, low
+    speed and gaps handled by :mod:`.cli.segments`). Returns (columns, wall [s], stretches,
+    y_noise, steer_noise)."""
     y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
     d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
 
@@ -197,19 +205,22 @@ def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
         r0 = float(sub.yaw_rate[0])
         t0 = time.perf_counter()
         lo, hi = interval_real_dt(des, sub.t, sub.vx, sub.delta - d_noise, sub.delta + d_noise,
-                                  sub.yaw_rate, [-2.0, r0 - 0.6], [2.0, r0 + 0.6], y_noise)
+                                  sub.yaw_rate, [-2.0, r0 - 0.6], [2.0, r0 + 0.6], y_noise, run)
         wall = time.perf_counter() - t0
         mid = 0.5 * (lo + hi)
-        return ({"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
-                 "beta_rad": np.arctan2(mid[:, 0], sub.vx),
-                 "vy_lo_mps": lo[:, 0], "vy_hi_mps": hi[:, 0],
-                 "yaw_rate_lo_radps": lo[:, 1], "yaw_rate_hi_radps": hi[:, 1]}, wall)
+        return (dict(zip(INTERVAL_COLUMNS, (mid[:, 0], mid[:, 1], np.arctan2(mid[:, 0], sub.vx),
+                                            lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]))), wall)
 
-    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_mps",
-                   "yaw_rate_lo_radps", "yaw_rate_hi_radps")
+    one.columns = INTERVAL_COLUMNS
     one.r_noise = y_noise
     cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
                                            max_gap, progress)
+    return cols, wall, n, y_noise, d_noise
+
+
+def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+    des, sec = interval_design(vehicle, log.dt)
+    cols, wall, n, y_noise, d_noise = _interval_stretches(des, log, vehicle, max_gap, progress)
     edges = des.model.bands.edges
     moving = ~cols["low_speed"]
     return Estimates("interval-ifqir2017", log.t, cols, wall, sec, True,
@@ -260,46 +271,12 @@ def coordinate_interval_design(vehicle, dt: float):
     return _IV_CACHE[key]
 
 
-def _coordinates_real_dt(cd, t, vx, u_lo, u_hi, y, x0_lo, x0_hi, y_noise):
-    """:func:`interval_real_dt` for the coordinate-change observer (one call per run of
-    equal steps, each started from the box the previous one reached)."""
+def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
     from vehicle_observers.observers import interval_coordinates as _ic
 
-    N = len(t)
-    xl, xh = np.empty((N, 2)), np.empty((N, 2))
-    lo, hi = np.asarray(x0_lo, float), np.asarray(x0_hi, float)
-    for a, b, dt in dt_runs(t):
-        sl = slice(a, b + 1)
-        res = _ic.run(cd, dt if dt > 0 else 1.0, vx[sl], u_lo[sl], u_hi[sl], y[sl], lo, hi,
-                      y_noise=y_noise, clip_speed=True)
-        xl[sl], xh[sl] = res.x_lo, res.x_hi
-        lo, hi = res.x_lo[-1], res.x_hi[-1]
-    return xl, xh
-
-
-def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
     cd, sec = coordinate_interval_design(vehicle, log.dt)
-    y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
-    d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
-
-    def one(sub, a):
-        r0 = float(sub.yaw_rate[0])
-        t0 = time.perf_counter()
-        lo, hi = _coordinates_real_dt(cd, sub.t, sub.vx, sub.delta - d_noise,
-                                      sub.delta + d_noise, sub.yaw_rate, [-2.0, r0 - 0.6],
-                                      [2.0, r0 + 0.6], y_noise)
-        wall = time.perf_counter() - t0
-        mid = 0.5 * (lo + hi)
-        return ({"vy_mps": mid[:, 0], "yaw_rate_radps": mid[:, 1],
-                 "beta_rad": np.arctan2(mid[:, 0], sub.vx),
-                 "vy_lo_mps": lo[:, 0], "vy_hi_mps": hi[:, 0],
-                 "yaw_rate_lo_radps": lo[:, 1], "yaw_rate_hi_radps": hi[:, 1]}, wall)
-
-    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_mps",
-                   "yaw_rate_lo_radps", "yaw_rate_hi_radps")
-    one.r_noise = y_noise
-    cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
-                                           max_gap, progress)
+    cols, wall, n, y_noise, d_noise = _interval_stretches(cd, log, vehicle, max_gap, progress,
+                                                          run=_ic.run)
     d = cd.design
     return Estimates("interval-coordinates", log.t, cols, wall, sec, True,
                      {"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
