@@ -573,16 +573,13 @@ class RoadObserverResult:
     x22: np.ndarray
 
 
-def run_road_observer(t, Y, p, gains: RoadObserverGains, z0=None) -> RoadObserverResult:
-    """Run the road-profile UIO on outputs ``Y`` (N, 10) = ``fullcar.outputs(paper=False)``
-    ``[x11 (4), x12 (3), x22 (3)]`` sampled at constant step, with observer-model constants
-    ``p`` (:class:`~vehicle_observers.models.fullcar.FullCarParams`, may differ from the truth).
-    ``z0`` (4,) initial wheel-displacement estimate (default: the first measurement); the
-    wheel-velocity, road-force and body-rate estimates start at 0 / the first measurement."""
+def _checked_outputs(t, Y, name: str, layout: str):
+    """``(t, Y, dt)`` for a road observer: ``Y`` (N, 10) finite, ``t`` (N,) uniformly
+    increasing; a ValueError naming the array, the row or the expected layout otherwise."""
     t = np.asarray(t, dtype=float)
     Y = np.ascontiguousarray(Y, dtype=float)
     if Y.ndim != 2 or Y.shape[1] != 10:
-        raise ValueError(f"Y must be (N, 10) [x11 (4), x12 (3), x22 (3)], got {Y.shape}")
+        raise ValueError(f"{name} must be (N, 10) {layout}, got {Y.shape}")
     if t.shape != (Y.shape[0],):
         raise ValueError(f"t must be (N,) with N={Y.shape[0]}, got {t.shape}")
     dt = float(t[1] - t[0])
@@ -590,7 +587,17 @@ def run_road_observer(t, Y, p, gains: RoadObserverGains, z0=None) -> RoadObserve
         raise ValueError("t must be uniformly increasing (constant step)")
     bad = ~np.all(np.isfinite(Y), axis=1)
     if bad.any():
-        raise ValueError(f"Y row {int(np.argmax(bad))} is not finite")
+        raise ValueError(f"{name} row {int(np.argmax(bad))} is not finite")
+    return t, Y, dt
+
+
+def run_road_observer(t, Y, p, gains: RoadObserverGains, z0=None) -> RoadObserverResult:
+    """Run the road-profile UIO on outputs ``Y`` (N, 10) = ``fullcar.outputs(paper=False)``
+    ``[x11 (4), x12 (3), x22 (3)]`` sampled at constant step, with observer-model constants
+    ``p`` (:class:`~vehicle_observers.models.fullcar.FullCarParams`, may differ from the truth).
+    ``z0`` (4,) initial wheel-displacement estimate (default: the first measurement); the
+    wheel-velocity, road-force and body-rate estimates start at 0 / the first measurement."""
+    t, Y, dt = _checked_outputs(t, Y, "Y", "[x11 (4), x12 (3), x22 (3)]")
     if _mode(gains.mode) == LPF:
         raise ValueError("mode 'lpf' applies to the force observer only: the road UIO always "
                          "low-pass filters its equivalent injections (tau_f); use 'sign' or "
@@ -749,18 +756,7 @@ def run_paper_output_observer(t, Yp, p, design: PaperOutputDesign, x0=None,
     states, measured body rates). The road force is the wheel line of (24)-(29) solved
     for ``zeta``: ``zeta = M1 x31 + C11 x21 + C12 x22 + K11 x11 + K12 x12`` (36), and
     the road elevation follows from (37) integrated exactly over each step."""
-    t = np.asarray(t, dtype=float)
-    Yp = np.ascontiguousarray(Yp, dtype=float)
-    if Yp.ndim != 2 or Yp.shape[1] != 10:
-        raise ValueError(f"Yp must be (N, 10) [x12 (3), x22 (3), x31 (4)], got {Yp.shape}")
-    if t.shape != (Yp.shape[0],):
-        raise ValueError(f"t must be (N,) with N={Yp.shape[0]}, got {t.shape}")
-    dt = float(t[1] - t[0])
-    if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
-        raise ValueError("t must be uniformly increasing (constant step)")
-    bad = ~np.all(np.isfinite(Yp), axis=1)
-    if bad.any():
-        raise ValueError(f"Yp row {int(np.argmax(bad))} is not finite")
+    t, Yp, dt = _checked_outputs(t, Yp, "Yp", "[x12 (3), x22 (3), x31 (4)]")
     x12, x22, acc = Yp[:, 0:3], Yp[:, 3:6], Yp[:, 6:10]
     y = x22
     if design.deflection_wheel is not None:
