@@ -1,9 +1,9 @@
 """EKF / UKF baseline (filterpy) for the fault-estimation problem of Notebook 06.
 
-Mission item 7 ("EKF (and UKF) baseline from filterpy, compared with every observer on the
-same data") for the relaxed UIO of El Youssfi 2020 (:mod:`.observers.uio`, reconstruction). The
-standard filter-based alternative to a UIO for fault estimation: augment the fault as a
-random-walk state and run a Kalman filter on the *nominal* model.
+The filterpy EKF (and UKF) compared with the relaxed UIO of El Youssfi 2020
+(:mod:`.observers.uio`, reconstruction) on the same data. The standard filter-based
+alternative to a UIO for fault estimation: augment the fault as a random-walk state and run a
+Kalman filter on the *nominal* model.
 
 Model (the observer's nominal two-rule TS model, eqs. (8), (14)-(15) of the paper as
 reconstructed in :mod:`.observers.uio`, **without** the uncertainty ``M F(t) (N_a x + N_b u)``)::
