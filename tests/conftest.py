@@ -7,11 +7,15 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results.reporting import load_metrics
 
 ROOT = repo_root()
 os.environ.setdefault("MPLBACKEND", "Agg")
+# property tests draw their examples from a fixed seed: the same cases on every run and machine
+settings.register_profile("deterministic", derandomize=True)
+settings.load_profile("deterministic")
 
 
 def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:

@@ -105,7 +105,8 @@ def _scenario(data, n, veh):
     t = np.arange(n) * DT
     v0 = data.draw(st.floats(5.0, 40.0), label="v0")
     v1 = data.draw(st.floats(5.0, 40.0), label="v1")
-    vx = v0 + (v1 - v0) * t / t[-1]
+    # the ramp stays inside [5, 40] m/s (np.clip: the last sample can round below v1 = 5)
+    vx = np.clip(v0 + (v1 - v0) * t / t[-1], 5.0, 40.0)
     amp = data.draw(st.floats(0.0, 0.06), label="steer amplitude")
     f = data.draw(st.floats(0.05, 2.0), label="steer frequency")
     step = data.draw(st.booleans(), label="steps")
