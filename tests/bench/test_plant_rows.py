@@ -66,3 +66,15 @@ def test_fig_plant_draws_one_bar_per_row():
     fig = suite.fig_plant(rows)
     heights = sorted(p.get_height() for p in fig.axes[0].patches)
     assert heights == pytest.approx([0.05, 0.1, 0.2, 0.3])
+
+
+def test_rts_target_explanation_is_computed():
+    diag = {"matched_rts_over_ekf": 0.88, "innov_p_r": 1e-9, "innov_p_ay": 0.3, "q_b": 0.5,
+            "dvy_db_r2": 0.6, "smoother_correct": True, "model_mismatch": True}
+    t = suite.rts_target("d", 0.12, 0.10, diag)
+    assert not t["met"] and t["explained"] and "0.880" in t["detail"]
+    assert not suite.rts_target("d", 0.12, 0.10, {**diag, "smoother_correct": False})["explained"]
+    assert not suite.rts_target("d", 0.12, 0.10, {**diag, "model_mismatch": False})["explained"]
+    met = suite.rts_target("d", 0.09, 0.10, diag)
+    assert met["met"] and not met["explained"]
+    assert "explained" not in suite.rts_target("d", 0.12, 0.10)
