@@ -37,6 +37,31 @@ def test_roundtrip_and_optional_columns(tmp_path):
         log.require("vy_mps", purpose="EKF")
 
 
+def test_written_floats_read_back_bit_exact_in_batches(tmp_path, monkeypatch):
+    """The writer's shortest round-trip floats come back bit-identical through the reader,
+    across batch boundaries (batch of 7 rows), for awkward values (subnormal, 1e300, -0.0,
+    many digits), and integer / boolean columns stay integers."""
+    from vehicle_observers.data import logs as L
+
+    monkeypatch.setattr(L, "WRITE_BATCH", 7)
+    rng = np.random.default_rng(3)
+    n = 50
+    t = np.cumsum(rng.uniform(1e-3, 2e-2, n))
+    x = rng.standard_normal(n) * 10.0 ** rng.integers(-300, 300, n)
+    x[:4] = [5e-324, 1e300, -0.0, 0.1 + 0.2]
+    seen = []
+    out = tmp_path / "rt.csv"
+    L.write_csv(out, {"t_s": t, "x": x, "flag": np.arange(n) % 3 == 0, "k": np.arange(n)},
+                progress=lambda i, m: seen.append((i, m)))
+    assert seen[-1] == (n, n) and len(seen) == -(-n // 7)
+    lines = out.read_text().splitlines()
+    assert lines[0] == "t_s,x,flag,k" and lines[1].endswith(",1,0")
+    back = L._read_columns(out, "rt.csv", lines[0].split(","), ["t_s", "x", "flag", "k"])
+    assert back["t_s"].tobytes() == t.tobytes() and back["x"].tobytes() == x.tobytes()
+    np.testing.assert_array_equal(back["flag"], np.arange(n) % 3 == 0)
+    np.testing.assert_array_equal(back["k"], np.arange(n))
+
+
 @pytest.mark.parametrize("mutate, message", [
     (lambda s: s.replace("yaw_rate_radps", "yawrate"), "missing column 'yaw_rate_radps'"),
     (lambda s: s.replace("0.02,1.0\n0.03", "nan,1.0\n0.03", 1),
@@ -162,7 +187,7 @@ def test_atomic_output_partial_file_lifecycle(tmp_path):
     assert not partial_path(out).exists() and not ACTIVE_PARTIALS
     with AtomicOutput(out) as sink:
         sink.commit({"a": np.arange(3.0)})
-    assert out.read_text() == "a\n0\n1\n2\n" and remove_stale_partials(out) == []
+    assert out.read_text() == "a\n0.0\n1.0\n2.0\n" and remove_stale_partials(out) == []
     del sink
 
 

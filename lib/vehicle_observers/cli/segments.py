@@ -54,8 +54,12 @@ def pole_rate(vehicle, vx) -> np.ndarray:
     a21 = -(p.a_f * Cf - p.a_r * Cr) / (p.I_z * v)
     a22 = -(p.a_f ** 2 * Cf + p.a_r ** 2 * Cr) / (p.I_z * v)
     half = 0.5 * (a11 + a22)
-    root = np.sqrt((half ** 2 - (a11 * a22 - a12 * a21)).astype(complex))
-    return np.maximum(np.abs(half + root), np.abs(half - root))
+    det = a11 * a22 - a12 * a21
+    disc = half ** 2 - det
+    # real poles half +- sqrt(disc): the larger magnitude is |half| + sqrt(disc); a complex
+    # pair has magnitude sqrt(det)
+    return np.where(disc >= 0, np.abs(half) + np.sqrt(np.maximum(disc, 0.0)),
+                    np.sqrt(np.maximum(det, 0.0)))
 
 
 def moving_rows(log: DriveLog, vehicle=None, v_low: float = V_LOW) -> np.ndarray:

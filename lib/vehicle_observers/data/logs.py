@@ -31,8 +31,6 @@ import gzip
 import io
 import os
 import zlib
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -171,7 +169,7 @@ class AtomicOutput:
         return self
 
     def commit(self, columns: dict, progress=None):
-        _write_arrow(self.tmp, columns, progress)
+        _write_table(self.tmp, columns, progress)
         os.replace(self.tmp, self.path)
         ACTIVE_PARTIALS.discard(self.tmp)
         self.done = True
@@ -183,13 +181,12 @@ class AtomicOutput:
         return False
 
 
-def _write_arrow(path, columns: dict, progress=None):
-    """CSV with pyarrow's writer (header line, comma separated, shortest round-trip floats;
-    integer / boolean columns as integers), in batches of :data:`WRITE_BATCH` rows formatted
-    by one thread per core (pyarrow releases the GIL; at most two batches per thread are in
-    memory) and written in order, with ``progress(rows_written, rows)`` after each."""
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
+def _write_table(path, columns: dict, progress=None):
+    """CSV with polars' writer (header line, comma separated, shortest round-trip floats
+    (Ryu), integer / boolean columns as integers), in batches of :data:`WRITE_BATCH` rows with
+    ``progress(rows_written, rows)`` after each. polars formats floats more than twice as fast
+    as pyarrow's writer."""
+    import polars as pl
 
     names = list(columns)
     arrs = []
@@ -200,38 +197,18 @@ def _write_arrow(path, columns: dict, progress=None):
     for c, a in zip(names, arrs):
         if a.shape != (n,):
             raise ValueError(f"column {c!r} has shape {a.shape}, expected ({n},)")
-    schema = pa.schema([(c, pa.from_numpy_dtype(a.dtype)) for c, a in zip(names, arrs)])
-    opts = pacsv.WriteOptions(include_header=False, quoting_style="none")
-
-    def text(a: int) -> bytes:
-        b = min(n, a + WRITE_BATCH)
-        sink = pa.BufferOutputStream()
-        pacsv.write_csv(pa.record_batch([pa.array(x[a:b]) for x in arrs], schema=schema),
-                        sink, write_options=opts)
-        return sink.getvalue().to_pybytes()
-
-    starts = list(range(0, n, WRITE_BATCH))
-    workers = max(1, min(os.cpu_count() or 1, 4))
-    with open(path, "wb") as fh, ThreadPoolExecutor(max_workers=workers) as ex:
-        fh.write((",".join(names) + "\n").encode())   # plain header (pyarrow would quote)
-        pending = deque()
-        for a in starts:
-            pending.append((a, ex.submit(text, a)))
-            if len(pending) > 2 * workers:
-                _write_done(fh, pending, n, progress)
-        while pending:
-            _write_done(fh, pending, n, progress)
-
-
-def _write_done(fh, pending, n, progress):
-    a, fut = pending.popleft()
-    fh.write(fut.result())
-    if progress is not None:
-        progress(min(n, a + WRITE_BATCH), n)
+    with open(path, "wb") as fh:
+        fh.write((",".join(names) + "\n").encode())   # plain header line, never quoted
+        for a in range(0, n, WRITE_BATCH):
+            b = min(n, a + WRITE_BATCH)
+            pl.DataFrame({c: x[a:b] for c, x in zip(names, arrs)}).write_csv(
+                fh, include_header=False, quote_style="never")
+            if progress is not None:
+                progress(b, n)
 
 
 def write_csv(path, columns: dict[str, np.ndarray], progress=None):
-    """Write named equal-length columns as CSV (pyarrow), completely or not at all."""
+    """Write named equal-length columns as CSV (polars), completely or not at all."""
     with AtomicOutput(path) as out:
         out.commit(columns, progress)
 
