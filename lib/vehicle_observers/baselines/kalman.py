@@ -103,10 +103,14 @@ def _tyre(alpha, B, C, D, E):
     if C == 0.0:
         return B * alpha, B
     Ba = B * alpha
-    phi = B * (1.0 - E) * alpha + E * np.arctan(Ba)
+    if E == 0.0:             # the same numbers without the curvature term's arctan
+        phi = Ba
+        dphi = B
+    else:
+        phi = B * (1.0 - E) * alpha + E * np.arctan(Ba)
+        dphi = B * (1.0 - E) + E * B / (1.0 + Ba * Ba)
     ang = C * np.arctan(phi)
     F = D * np.sin(ang)
-    dphi = B * (1.0 - E) + E * B / (1.0 + Ba * Ba)
     dF = D * np.cos(ang) * C / (1.0 + phi * phi) * dphi
     return F, dF
 
