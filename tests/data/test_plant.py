@@ -50,7 +50,7 @@ def test_seeded_noise_with_stated_std(sine):
     assert not np.array_equal(other.yaw_rate, sine.yaw_rate)    # other noise
     n = len(sine)
     for ch, attr, truth in (("yaw_rate", "yaw_rate", "yaw_rate_true_radps"),
-                            ("ay", "ay", "ay_true_mps2"), ("vx", "vx", "vx_true_mps")):
+                            ("ay", "ay", "ay_sensor_true_mps2"), ("vx", "vx", "vx_true_mps")):
         e = getattr(sine, attr) - sine.extra[truth]
         # sample std of n Gaussian draws: relative error ~ 1/sqrt(2n) = 2.6 %; 4 sigma band
         assert np.std(e) == pytest.approx(plant.NOISE_STD[ch], rel=4 / np.sqrt(2 * n))
@@ -74,6 +74,25 @@ def test_quasi_steady_yaw_gain_matches_bicycle_with_data_sheet(ramp):
     late = ramp.t > 10
     gain = ramp.extra["yaw_rate_true_radps"][late] / ramp.extra["delta_true_rad"][late]
     assert np.median(gain) == pytest.approx(v / (L + Kus * v**2), rel=0.05)
+
+
+def test_body_accelerometer_reads_more_than_the_level_acceleration_in_turns(sine):
+    """The body rolls outward in turns, so a sprung-mass accelerometer reads the level
+    acceleration plus about g |phi|. The sign of the library's roll angle is checked here,
+    not assumed: the sensor's magnitude is larger on at least 95 % of the samples with
+    |a_y| > 1 m/s^2 (the rest are where a_y changes sign and the roll lags it), and its
+    least-squares gain on a_y is 1 + g k_phi for a roll gradient of 6-12 deg per g; a
+    "level" sensor reads a_y itself."""
+    ay, sens = sine.extra["ay_true_mps2"], sine.extra["ay_sensor_true_mps2"]
+    turn = np.abs(ay) > 1.0
+    assert turn.sum() > 100
+    assert np.mean(np.abs(sens[turn]) > np.abs(ay[turn])) >= 0.95
+    gain = float(ay @ sens / (ay @ ay))
+    assert 1 + np.radians(6) < gain < 1 + np.radians(12)
+    level = plant.simulate(plant.sine_with_dwell_manoeuvre(), seed=3, accelerometer="level")
+    np.testing.assert_array_equal(level.ay - sine.ay, ay - sens)
+    with pytest.raises(ValueError, match="accelerometer must be one of"):
+        plant.simulate(plant.sine_with_dwell_manoeuvre(), accelerometer="tilted")
 
 
 def test_bad_manoeuvre_rejected():

@@ -127,10 +127,12 @@ class StiffnessFit:
     ``ci_lo``, ``ci_hi`` 95 % intervals; ``rel_ci`` half-widths relative to the value;
     ``corr`` correlation matrix (log parameters); ``singular_values`` of the scaled Jacobian;
     ``identifiable`` True when every parameter's ``rel_ci`` is below the threshold;
-    ``combination`` (when not): the best-determined combination ``prod p_i^{w_i}`` as
+    ``combination`` (when not): the best-determined combination ``prod p_i^{w_i}`` of the
+    tyre parameters (accelerometer gain marginalised out; its weight 0) as
     ``(weights, value, rel_ci)``; ``channels`` used; ``noise_std`` per channel;
     ``rms_residual`` per channel (same units as the channel); ``nonlinear`` whether ``mu``
-    was identified; ``message`` a one-paragraph plain statement."""
+    was identified; ``message`` a one-paragraph plain statement; ``ay_gain`` the fitted
+    accelerometer gain (1.0 when not fitted; also in ``names`` then)."""
 
     names: tuple
     value: np.ndarray
@@ -147,9 +149,14 @@ class StiffnessFit:
     nonlinear: bool
     message: str
     params: LateralParams | None = None
+    ay_gain: float = 1.0
 
     def get(self, name: str) -> float:
         return float(self.value[self.names.index(name)])
+
+
+#: search interval of the accelerometer gain g_ay of :func:`identify_stiffness`
+AY_GAIN_BOUNDS = (0.7, 1.5)
 
 
 def _model_params(base: LateralParams, th: np.ndarray, nonlinear: bool,
@@ -171,7 +178,8 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
                        channels=("yaw_rate", "ay"), nonlinear: str | bool = "auto",
                        t_skip: float = 1.0, max_rel_ci: float = DEFAULT_MAX_REL_CI,
                        max_corr: float = MAX_CORR,
-                       start=(8e4, 8e4, 1.0), substeps: int = 4) -> StiffnessFit:
+                       start=(8e4, 8e4, 1.0), substeps: int = 4,
+                       ay_gain: bool = True) -> StiffnessFit:
     """Identify ``C_f, C_r`` [N/rad] (and ``mu`` when the log reaches the nonlinear range)
     from ``channels`` (``"yaw_rate"`` and/or ``"ay"``; never the reference ``v_y``).
 
@@ -181,6 +189,13 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     mismatch: on the plant's 0.4 g slalom it came out 0.86 for a 1.05 tyre), and keeps it
     only if its interval is below ``max_rel_ci``; ``True`` always fits it; ``False`` fits
     linear tyres.
+    ``ay_gain`` (with the ``"ay"`` channel): also fit the accelerometer's gain ``g_ay``,
+    ``a_y,meas = g_ay (F_f + F_r)/m``. An accelerometer fixed to the body reads the specific
+    force along the rolled lateral axis, ``a_y cos(phi) + g sin(phi_out)``, and the body rolls
+    outward in proportion to ``a_y`` (roll gradient ``k_phi`` [rad per m/s^2]), so
+    ``g_ay ~ 1 + g k_phi`` (1.16 for a car rolling 9 deg per g); fitting the stiffness with
+    ``g_ay = 1`` on such a sensor puts the roll into the tyres (C_f +11 % on the plant's sine
+    with dwell). The yaw-rate channel fixes the stiffness, a_y then fixes ``g_ay``.
     Identifiable means every 95 % interval below ``max_rel_ci`` *and* every pairwise
     |correlation| below ``max_corr``: near-collinear parameters (quasi-steady cornering, where
     only the understeer gradient is seen) are biased by small model mismatch far beyond their
@@ -213,14 +228,17 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
             r, ay = _outputs(_model_params(base, th, nl, Fz), log, substeps)
         except (ValueError, FloatingPointError):
             return np.full(int(sel.sum()) * len(channels), 1e3)
-        out = {"yaw_rate": r, "ay": ay}
+        out = {"yaw_rate": r, "ay": ay * (np.exp(th[-1]) if gain else 1.0)}
         e = np.concatenate([(out[c][sel] - meas[c][sel]) / sd[c] for c in channels])
         return np.where(np.isfinite(e), np.clip(e, -1e4, 1e4), 1e4)
 
+    gain = bool(ay_gain) and "ay" in channels
+
     def fit(nl):
-        th0 = np.log(np.asarray(start[: 3 if nl else 2], dtype=float))
-        lb = np.log([5e3, 5e3, 0.2][: len(th0)])
-        ub = np.log([2e6, 2e6, 3.0][: len(th0)])
+        k = 3 if nl else 2
+        th0 = np.log(np.r_[np.asarray(start[:k], dtype=float), [1.0] if gain else []])
+        lb = np.log(np.r_[[5e3, 5e3, 0.2][:k], [AY_GAIN_BOUNDS[0]] if gain else []])
+        ub = np.log(np.r_[[2e6, 2e6, 3.0][:k], [AY_GAIN_BOUNDS[1]] if gain else []])
         res = least_squares(lambda th: resid(th, nl), th0, bounds=(lb, ub), x_scale=1.0,
                             diff_step=1e-4, max_nfev=200)
         e = res.fun
@@ -242,7 +260,8 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
         nonlin_kept = False
         th, cov, Js, _ = fit(False)
         sig = np.sqrt(np.maximum(np.diag(cov), 0))
-    names = ("C_f", "C_r", "mu")[: len(th)]
+    names = ("C_f", "C_r", "mu")[: len(th) - gain] + (("ay_gain",) if gain else ())
+    g_ay = float(np.exp(th[-1])) if gain else 1.0
     val = np.exp(th)
     rel = np.exp(Z95 * sig) - 1.0
     d = np.where(sig > 0, sig, 1.0)
@@ -253,14 +272,22 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     comb = None
     p = _model_params(base, th, nonlin_kept, Fz)
     r_mod, ay_mod = _outputs(p, log, substeps)
+    ay_mod = g_ay * ay_mod
     rms = {c: float(np.sqrt(np.mean(((r_mod if c == "yaw_rate" else ay_mod) - meas[c])[sel] ** 2)))
            for c in channels}
     if not ident:
-        w = Vt[0] / np.abs(Vt[0]).max()
-        cval = float(np.exp(w @ th))
-        csig = float(np.sqrt(w @ cov @ w))
+        # best-determined combination of the tyre parameters (the accelerometer gain
+        # marginalised out): the least-variance direction of their covariance block,
+        # weights scaled to max |w| = 1 with the last one positive
+        k = len(th) - gain
+        ev, V = np.linalg.eigh(cov[:k, :k])
+        w = V[:, 0] / np.abs(V[:, 0]).max()
+        w = w if w[-1] >= 0 else -w
+        cval = float(np.exp(w @ th[:k]))
+        csig = float(np.sqrt(w @ cov[:k, :k] @ w))
+        w = np.r_[w, np.zeros(len(th) - k)]
         comb = (w, cval, float(np.exp(Z95 * csig) - 1.0))
-        txt = " * ".join(f"{n}^{wi:+.2f}" for n, wi in zip(names, w))
+        txt = " * ".join(f"{n}^{wi:+.2f}" for n, wi in zip(names, w) if abs(wi) >= 0.005)
         msg = (f"NOT identifiable from {'+'.join(channels)}: 95 % intervals "
                + ", ".join(f"{n} +-{100 * r:.0f} %" for n, r in zip(names, rel))
                + f" (threshold {100 * max_rel_ci:.0f} %), correlation C_f-C_r "
@@ -279,7 +306,7 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
                        ", but mu's interval exceeds the threshold") + "): linear tyres")
     return StiffnessFit(names, val, np.exp(th - Z95 * sig), np.exp(th + Z95 * sig), rel, corr,
                         S, ident, comb, tuple(channels), sd, rms, nonlin_kept, msg,
-                        p if ident else None)
+                        p if ident else None, g_ay)
 
 
 def vehicle_toml(fit: StiffnessFit, name: str, vx_range: tuple[float, float],

@@ -32,10 +32,19 @@ defined by the lateral and yaw balance of the whole car,
 ``m a_y = F_f + F_r``, ``I_z r' = l_f F_f - l_r F_r`` (``a_y`` the mass-weighted lateral
 acceleration of sprung and unsprung bodies, ``r'`` the library's yaw acceleration).
 Measured (seeded, Gaussian white, std :data:`NOISE_STD`): ``vx_mps``, ``delta_roadwheel_rad``
-(the plant's actual road-wheel angle), ``yaw_rate_radps``, ``ay_mps2`` (sprung-mass lateral
-acceleration ``v_y' + r v_x``, gravity component of roll not included). The noise-free
-channels are kept in ``extra`` (``vx_true_mps``, ``delta_true_rad``, ``yaw_rate_true_radps``,
-``ay_true_mps2``, ``roll_rad``).
+(the plant's actual road-wheel angle), ``yaw_rate_radps``, ``ay_mps2``: an accelerometer
+fixed to the sprung mass (``accelerometer="body"``, the default) reads the specific force
+along the body's lateral axis,
+
+    a_y,meas = a_y cos(phi) - g sin(phi),     a_y = v_y' + r v_x  (sprung mass, level frame),
+
+with ``phi`` the library's roll angle, which is negative when the body rolls towards the
+right (outward in a left turn, where ``a_y > 0``): the sensor reads *more* than the
+horizontal acceleration in every turn, by about ``g |phi|`` (the BMW rolls about 9 deg per
+g, so about 16 %). ``accelerometer="level"`` gives the level-frame ``a_y`` (a roll-compensated
+sensor). The noise-free channels are kept in ``extra`` (``vx_true_mps``, ``delta_true_rad``,
+``yaw_rate_true_radps``, ``ay_true_mps2`` (level frame), ``ay_sensor_true_mps2`` (what the
+accelerometer reads), ``roll_rad``).
 """
 
 from __future__ import annotations
@@ -173,11 +182,18 @@ def _rk4(f, x, u, p, h):
     return x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), k1
 
 
+#: accelerometer models of :func:`simulate` (module docstring)
+ACCELEROMETERS = ("body", "level")
+
+
 def simulate(man: Manoeuvre, vehicle_id: int = 2, seed: int = 0, noise_scale: float = 1.0,
-             h: float = H_STEP) -> DriveLog:
+             h: float = H_STEP, accelerometer: str = "body") -> DriveLog:
     """Drive the multi-body plant along ``man`` and return the log (100 Hz, see module
     docstring for every channel). ``seed`` draws every sensor noise; ``noise_scale``
-    multiplies :data:`NOISE_STD` (0 = noise-free measured channels)."""
+    multiplies :data:`NOISE_STD` (0 = noise-free measured channels); ``accelerometer``:
+    ``"body"`` (fixed to the rolling sprung mass) or ``"level"`` (roll-compensated)."""
+    if accelerometer not in ACCELEROMETERS:
+        raise ValueError(f"accelerometer must be one of {ACCELEROMETERS}, got {accelerometer!r}")
     if not (np.isfinite(noise_scale) and noise_scale >= 0):
         raise ValueError(f"noise_scale must be finite and >= 0, got {noise_scale}")
     if man.v_ref[0] < 1.0:
@@ -213,19 +229,22 @@ def simulate(man: Manoeuvre, vehicle_id: int = 2, seed: int = 0, noise_scale: fl
     rng = np.random.default_rng(seed)
     sd = {c: s * noise_scale for c, s in NOISE_STD.items()}
     nz = {c: rng.standard_normal(N) * sd[c] for c in NOISE_STD}     # fixed draw order
+    ay_sensor = ay_s * np.cos(roll) - G * np.sin(roll) if accelerometer == "body" else ay_s
     extra = {"vx_true_mps": vx, "delta_true_rad": dl, "yaw_rate_true_radps": r,
-             "ay_true_mps2": ay_s, "roll_rad": roll, "delta_ref_rad": man.delta_ref.copy()}
+             "ay_true_mps2": ay_s, "ay_sensor_true_mps2": ay_sensor, "roll_rad": roll,
+             "delta_ref_rad": man.delta_ref.copy()}
     return DriveLog(t=man.t.copy(), vx=vx + nz["vx"], delta=dl + nz["delta"],
-                    yaw_rate=r + nz["yaw_rate"], ay=ay_s + nz["ay"], vy=vy, Ff=Ff, Fr=Fr,
+                    yaw_rate=r + nz["yaw_rate"], ay=ay_sensor + nz["ay"], vy=vy, Ff=Ff, Fr=Fr,
                     extra=extra,
                     source=f"commonroad MB plant (vehicle {vehicle_id}): {man.name}, "
-                           f"seed={seed}, noise_scale={noise_scale:g}")
+                           f"seed={seed}, noise_scale={noise_scale:g}, "
+                           f"{accelerometer} accelerometer")
 
 
 def plant_log(name: str, seed: int = 0, quick: bool = False, vehicle_id: int = 2,
-              noise_scale: float = 1.0) -> DriveLog:
+              noise_scale: float = 1.0, accelerometer: str = "body") -> DriveLog:
     """One of :data:`MANOEUVRES` on the plant; ``quick`` shortens the Satory replay to 20 s
-    and the slalom to 10 s."""
+    and the slalom to 10 s; ``accelerometer`` as in :func:`simulate`."""
     if name not in MANOEUVRES:
         raise ValueError(f"unknown manoeuvre {name!r}; expected one of {', '.join(MANOEUVRES)}")
     kw = {}
@@ -234,7 +253,7 @@ def plant_log(name: str, seed: int = 0, quick: bool = False, vehicle_id: int = 2
     elif quick and name == "slalom":
         kw = {"duration": 10.0}
     return simulate(MANOEUVRES[name](**kw), vehicle_id=vehicle_id, seed=seed,
-                    noise_scale=noise_scale)
+                    noise_scale=noise_scale, accelerometer=accelerometer)
 
 
 def max_front_slip_deg(log: DriveLog, p: LateralParams) -> float:
