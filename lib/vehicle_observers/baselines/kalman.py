@@ -53,7 +53,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
-from scipy.optimize import minimize
 
 from vehicle_observers.data.identification import white_noise_std
 from vehicle_observers.data.logs import DriveLog, despike
@@ -629,6 +628,8 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
         return v if np.isfinite(v) else 1e300
 
     lo, hi = np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
+
+    from scipy.optimize import minimize  # imported here: it costs 0.5 s of start-up
 
     def solve(s):
         # initial simplex SIMPLEX_STEP decades along each axis (towards the inside of the

@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.lateral import LateralParams, simulate_s1
@@ -63,6 +62,8 @@ def identify_friction(p: LateralParams, log: DriveLog, delta=None, bounds=(1.0, 
     def cost(mu):
         c = yaw_rate_rms(with_friction(p, mu, Fz_f, Fz_r), log, delta, substeps)
         return c if np.isfinite(c) else 1e3
+
+    from scipy.optimize import minimize_scalar
 
     res = minimize_scalar(cost, bounds=bounds, method="bounded", options={"xatol": 1e-3})
     mu = float(res.x)

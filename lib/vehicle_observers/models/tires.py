@@ -15,7 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 
 def _sinc(x):
@@ -91,6 +90,8 @@ class Pacejka:
         def gap(B):
             t = cls(B=B, C=C, D=M_max / (B * C), E=E)
             return t.secant_stiffness(alpha_max) / M_max - ratio
+
+        from scipy.optimize import brentq
 
         B = brentq(gap, 1e-3, 10.0 / alpha_max, xtol=1e-14, rtol=1e-14)
         return cls(B=B, C=C, D=M_max / (B * C), E=E)

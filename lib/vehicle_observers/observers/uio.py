@@ -91,7 +91,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
-from scipy.optimize import least_squares
 
 from vehicle_observers.core.errors import InfeasibleDesign
 from vehicle_observers.core.metrics import rmse
@@ -180,6 +179,8 @@ def fit_fuzzy_forces(tire_f, tire_r, alpha_max: float, n: int = 401, x0=None) ->
         k0f, k0r = tire_f.cornering_stiffness, tire_r.cornering_stiffness
         x0 = (alpha_max / 2, 1.0, 0.0, k0f, 0.6 * k0f, k0r, 0.6 * k0r)
     scale = [alpha_max, 1.0, alpha_max, *(4 * [max(tire_f.cornering_stiffness, 1.0)])]
+    from scipy.optimize import least_squares
+
     res = least_squares(resid, np.asarray(x0, dtype=float), method="lm", x_scale=scale,
                         xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=20000)
     a, b, c, cf1, cf2, cr1, cr2 = res.x
