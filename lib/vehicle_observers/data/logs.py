@@ -107,7 +107,7 @@ class DriveLog:
 
 
 #: rows per batch when writing (the progress callback is called after each)
-WRITE_BATCH = 1 << 18
+WRITE_BATCH = 1 << 20
 #: longest field accepted in a log [characters] (a longer one is not a number of a log)
 MAX_FIELD = 128 * 1024
 
@@ -550,7 +550,8 @@ def despike(x, threshold: float):
     y = x.copy()
     if len(x) < 3:
         return y, np.array([], dtype=int)
-    med = np.median(np.column_stack([x[:-2], x[1:-1], x[2:]]), axis=1)
+    a, b, c = x[:-2], x[1:-1], x[2:]
+    med = np.maximum(np.minimum(a, b), np.minimum(np.maximum(a, b), c))   # median of three
     idx = np.flatnonzero(np.abs(x[1:-1] - med) > threshold) + 1
     y[idx] = med[idx - 1]
     return y, idx
