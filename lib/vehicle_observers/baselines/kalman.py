@@ -572,9 +572,11 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     Minimises the EKF innovation negative log-likelihood of the measured ``[r, a_y]``
     (or ``r`` alone) over ``log10`` of the five noise parameters (or three without a_y)
     inside :data:`TUNE_BOUNDS`, with Nelder-Mead (deterministic; initial simplex
-    :data:`SIMPLEX_STEP` decades) from ``start``, from ``start`` with ``q_b = 1e-5`` and (with
-    ``noise_floor``) from the data's own noise level; the best optimum is kept. The starts run
-    in parallel threads (one per core). Reads only
+    :data:`SIMPLEX_STEP` decades) from two starts, the better optimum kept: with
+    ``noise_floor``, ``start`` with ``R`` at the data's own noise level and ``start`` itself;
+    without, ``start`` and ``start`` with ``q_b = 1e-5``. The two run in parallel threads.
+    (A third start, ``q_b = 1e-5`` beside the other two, never improved on them on the Revs
+    log, the three plant manoeuvres or the emulated Satory log.) Reads only
     ``t, v_x, delta, r, a_y``: the reference ``v_y``/force columns are never used, so the
     same call applies to any car's log.
 
@@ -591,7 +593,7 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     end on a bound and which are poorly determined).
     """
     start = start or KalmanTuning()
-    # two starts: the given one and the same with a nearly constant a_y offset (the
+    # without the floor: the given start and the same with a nearly constant a_y offset (the
     # likelihood has a second basin where b_ay soaks up the a_y noise)
     starts = [start, replace(start, q_b=1e-5)]
     if window_s is not None:
@@ -599,10 +601,10 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     every = max(1, int(np.floor(1.0 / (log.dt * max_rate_hz) + 1e-9)))
     log = thin(log, every)
     if noise_floor:
-        # a third start at the data's own noise level: the likelihood is multimodal and a
+        # a start at the data's own noise level first: the likelihood is multimodal and a
         # start clipped onto the floor can fall into a poorer basin
         fl = {k: v / NOISE_FLOOR_SHARE for k, v in noise_floors(log).items()}
-        starts.append(replace(start, **fl))
+        starts = [replace(start, **fl), start]
     inp = prepare(log, use_ay)
     Parr = params.as_array()
     P0 = _p0(start.P0, inp)
