@@ -225,3 +225,13 @@ def test_tune_prints_a_kalman_table_that_the_loader_accepts(capsys, files):
     assert np.allclose(v.kalman.theta(), ref.theta(), rtol=1e-5)
     code, _, err = run_cli(capsys, "tune", files["log"], "--vehicle", "nonexistent.toml")
     assert_one_line_error(code, err, "nonexistent.toml")
+
+
+def test_closed_stdout_exits_quietly():
+    """A reader that closes the pipe (``| head -1``) ends the command as SIGPIPE would: exit
+    141 and nothing on stderr (no 'internal error')."""
+    p = subprocess.Popen([sys.executable, "-m", "vehicle_observers", "observers"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()                                   # before the child writes anything
+    err = p.stderr.read()
+    assert p.wait(timeout=120) == 141 and err == b""

@@ -635,6 +635,18 @@ def rts_diagnosis(log: DriveLog, params, tuning, mask=None, seed: int = 0) -> di
             "smoother_correct": d["smoother_correct"], "model_mismatch": d["model_mismatch"]}
 
 
+def diagnosis_metrics(prefix: str, diag: dict) -> dict:
+    """Flat metrics of :func:`rts_diagnosis` for notebook 07: ``<prefix>_rts_matched_ratio``
+    (RTS / EKF v_y RMSE on data drawn from the filter's own model), ``<prefix>_innov_p_r`` and
+    ``<prefix>_innov_p_ay`` (Ljung-Box p-values of the normalised innovations; the a_y one
+    only when the log has a_y)."""
+    out = {f"{prefix}_rts_matched_ratio": float(diag["matched_rts_over_ekf"]),
+           f"{prefix}_innov_p_r": float(diag["innov_p_r"])}
+    if np.isfinite(diag["innov_p_ay"]):
+        out[f"{prefix}_innov_p_ay"] = float(diag["innov_p_ay"])
+    return out
+
+
 def rts_target(dataset: str, rts: float, ekf: float, diag: dict | None = None) -> dict:
     """The target "RTS <= EKF" (v_y RMSE [m/s]) with, when ``diag`` (:func:`rts_diagnosis`)
     is given, ``explained``: the target is missed, the smoother beats the filter on its own
@@ -757,7 +769,8 @@ def plant_metrics(rows: list[dict], cert_rows: list[dict]) -> dict:
     """Flat metrics of the independent-plant section for notebook 07 (identifier names, so
     that rules can use them): per manoeuvre ``plant_<m>_<observer>_rmse_vy`` [m/s] (and the
     interval observer's ``_enclosure_vy`` / ``_width_vy``), ``plant_<m>_best_over_open_loop``
-    (best project observer / open-loop linear bicycle), ``plant_<m>_rts_over_ekf``; over the
+    (best project observer / open-loop linear bicycle), ``plant_<m>_rts_over_ekf`` and the
+    smoother diagnosis (:func:`diagnosis_metrics`) when the ``rts`` rows carry it; over the
     cars of :func:`interval_certification_rows`: ``interval_cars``, ``interval_certified_cars``,
     ``interval_min_matched_enclosure``."""
     out = {}
@@ -774,6 +787,8 @@ def plant_metrics(rows: list[dict], cert_rows: list[dict]) -> dict:
         out[f"plant_{key}_best_over_open_loop"] = best / ol
         if "rts" in rr and "ekf" in rr:
             out[f"plant_{key}_rts_over_ekf"] = rr["rts"]["rmse_vy"] / rr["ekf"]["rmse_vy"]
+        if "matched_rts_over_ekf" in rr.get("rts", {}):
+            out.update(diagnosis_metrics(f"plant_{key}", rr["rts"]))
     out["interval_cars"] = len(cert_rows)
     out["interval_certified_cars"] = int(sum(bool(r["certified"]) for r in cert_rows))
     out["interval_min_matched_enclosure"] = float(min(r["matched_enclosure"] for r in cert_rows))

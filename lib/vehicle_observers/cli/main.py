@@ -43,6 +43,8 @@ import numpy as np
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
+#: stdout closed by its reader (as if ended by SIGPIPE)
+EXIT_PIPE = 141
 
 
 class CLIError(Exception):
@@ -396,6 +398,14 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("error: interrupted (no output written)", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader of stdout went away (e.g. `| head -1`): leave quietly, as a process
+        # ended by SIGPIPE would (128 + 13); the output file, if any, is already complete
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return EXIT_PIPE
     except Exception as exc:  # noqa: BLE001 - last resort: one line, never a traceback
         msg = str(exc).splitlines()[0] if str(exc) else ""
         print(f"error: internal error {type(exc).__name__}: {msg}", file=sys.stderr)
