@@ -133,6 +133,25 @@ def test_vehicle_toml_round_trip(plant_logs, tmp_path):
                                                            abs=1e-4)
 
 
+def test_a_fit_that_does_not_follow_the_log_is_refused(plant_logs):
+    """A yaw rate unrelated to the steering (the slalom's samples in a seeded random order)
+    cannot be followed by any stiffness: refused, whatever the intervals say, and no vehicle
+    file; without steering the channels do not move with the parameters (singular)."""
+    log = plant_logs["slalom"]
+    perm = np.random.default_rng(0).permutation(len(log))
+    scrambled = DriveLog(t=log.t, vx=log.vx, delta=log.delta, yaw_rate=log.yaw_rate[perm],
+                         ay=log.ay[perm])
+    fit = ident.identify_stiffness(scrambled, *GEOM)
+    assert not fit.identifiable and fit.params is None
+    assert "does not follow the log" in fit.message and "yaw_rate" in fit.message
+    with pytest.raises(ValueError, match="refusing to write"):
+        ident.vehicle_toml(fit, "x", (17.0, 19.0))
+    still = DriveLog(t=log.t, vx=log.vx, delta=np.zeros(len(log)), yaw_rate=log.yaw_rate,
+                     ay=log.ay)
+    fit = ident.identify_stiffness(still, *GEOM, channels=("yaw_rate",))
+    assert not fit.identifiable and fit.params is None and "NOT identified" in fit.message
+
+
 def test_bad_channel_rejected(plant_logs):
     with pytest.raises(ValueError, match="reference v_y is never used"):
         ident.identify_stiffness(plant_logs["slalom"], *GEOM, channels=("vy",))

@@ -90,6 +90,13 @@ Z95 = 1.959963984540054
 DEFAULT_MAX_REL_CI = 0.25   # a parameter is "identified" if its 95 % CI half-width < 25 %
 MAX_CORR = 0.995            # |correlation| above this: only a combination is determined
 NONLINEAR_AY = 0.5 * 9.81   # m/s^2: mu is fitted only if max|a_y| reaches 0.5 g
+#: default start of the stiffness fit: C = START_COEFF * static axle load [1/rad] per axle (a
+#: neutral-steer car, stable at every speed; a fixed start such as 8e4 N/rad on both axles is
+#: an oversteering car for a rearward CG and its open-loop run spins above ~40 m/s)
+START_COEFF = 16.0
+#: a fit whose open-loop model leaves more than this share of a channel's variance unexplained
+#: (RMS residual / channel std) does not follow the log: it is refused, whatever its intervals
+MAX_UNEXPLAINED = 0.7
 
 
 def white_noise_std(x) -> float:
@@ -179,12 +186,17 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
                        channels=("yaw_rate", "ay"), nonlinear: str | bool = "auto",
                        t_skip: float = 1.0, max_rel_ci: float = DEFAULT_MAX_REL_CI,
                        max_corr: float = MAX_CORR,
-                       start=(8e4, 8e4, 1.0), substeps: int = 4,
+                       start=None, substeps: int = 4,
                        ay_gain: bool = True) -> StiffnessFit:
     """Identify ``C_f, C_r`` [N/rad] (and ``mu`` when the log reaches the nonlinear range)
     from ``channels`` (``"yaw_rate"`` and/or ``"ay"``; never the reference ``v_y``).
 
     ``m`` [kg], ``I_z`` [kg m^2], ``a_f``, ``a_r`` [m] are given (not identified).
+    ``start``: ``(C_f, C_r, mu)`` of the search (``None``: :data:`START_COEFF` times the static
+    axle loads, ``mu = 1``). A fit whose open-loop model does not follow the log (RMS
+    residual above :data:`MAX_UNEXPLAINED` times the channel's standard deviation, e.g. a
+    run that spins) or whose Jacobian is singular is reported not identifiable, never as a
+    result.
     ``nonlinear``: ``"auto"`` fits ``mu`` only if the log reaches the nonlinear range of any
     dry-road tyre, ``max|a_y| >= 0.5 g`` (below it a fitted ``mu`` only absorbs model
     mismatch: on the plant's 0.4 g slalom it came out 0.86 for a 1.05 tyre), and keeps it
@@ -220,6 +232,8 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     base = LateralParams(m=m, I_z=I_z, a_f=a_f, a_r=a_r, tire_f=LinearTire(1.0),
                          tire_r=LinearTire(1.0), name="identified")
     Fz = static_axle_loads(base)
+    if start is None:
+        start = (START_COEFF * Fz[0], START_COEFF * Fz[1], 1.0)
     meas = {"yaw_rate": log.yaw_rate, "ay": log.ay}
     sd = {c: max(white_noise_std(meas[c]), 1e-6) for c in channels}
     sel = log.t >= log.t[0] + t_skip
@@ -264,6 +278,7 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     names = ("C_f", "C_r", "mu")[: len(th) - gain] + (("ay_gain",) if gain else ())
     g_ay = float(np.exp(th[-1])) if gain else 1.0
     val = np.exp(th)
+    sig = np.minimum(sig, 300.0 / Z95)      # an interval of e^300 is infinite for every purpose
     rel = np.exp(Z95 * sig) - 1.0
     d = np.where(sig > 0, sig, 1.0)
     corr = cov / np.outer(d, d)
@@ -276,6 +291,22 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     ay_mod = g_ay * ay_mod
     rms = {c: float(np.sqrt(np.mean(((r_mod if c == "yaw_rate" else ay_mod) - meas[c])[sel] ** 2)))
            for c in channels}
+    spread = {c: float(np.std(meas[c][sel])) for c in channels}
+    poor = [c for c in channels if not (rms[c] <= MAX_UNEXPLAINED * spread[c])]
+    singular = not (S.size and S.min() > 1e-9 * S.max())
+    if poor or singular:
+        ident = False
+        why = ("the open-loop model does not follow the log: RMS residual "
+               + ", ".join(f"{c} {rms[c]:.3g} (channel std {spread[c]:.3g})" for c in poor)
+               + f" above {MAX_UNEXPLAINED:g} x the channel std" if poor else
+               "the fit's Jacobian is singular (the channels do not move with the parameters)")
+        msg = (f"NOT identified from {'+'.join(channels)}: {why}; the search ended at "
+               + ", ".join(f"{n} = {v:.4g}" for n, v in zip(names, val))
+               + ". Try a log segment without spins and standstill, other --channels, or a "
+               "vehicle file from a data sheet; no vehicle file is written from this fit.")
+        return StiffnessFit(names, val, np.exp(th - Z95 * sig), np.exp(th + Z95 * sig), rel,
+                            corr, S, False, None, tuple(channels), sd, rms, nonlin_kept, msg,
+                            None, g_ay)
     if not ident:
         # best-determined combination of the tyre parameters (the accelerometer gain
         # marginalised out): the least-variance direction of their covariance block,
@@ -285,7 +316,7 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
         w = V[:, 0] / np.abs(V[:, 0]).max()
         w = w if w[-1] >= 0 else -w
         cval = float(np.exp(w @ th[:k]))
-        csig = float(np.sqrt(w @ cov[:k, :k] @ w))
+        csig = float(np.sqrt(max(float(w @ cov[:k, :k] @ w), 0.0)))
         w = np.r_[w, np.zeros(len(th) - k)]
         comb = (w, cval, float(np.exp(Z95 * csig) - 1.0))
         txt = " * ".join(f"{n}^{wi:+.2f}" for n, wi in zip(names, w) if abs(wi) >= 0.005)
