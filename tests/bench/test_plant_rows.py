@@ -78,3 +78,12 @@ def test_rts_target_explanation_is_computed():
     met = suite.rts_target("d", 0.09, 0.10, diag)
     assert met["met"] and not met["explained"]
     assert "explained" not in suite.rts_target("d", 0.12, 0.10)
+
+
+def test_diagnosis_metrics_names_and_missing_ay():
+    diag = {"matched_rts_over_ekf": 0.88, "innov_p_r": 1e-9, "innov_p_ay": 0.3}
+    m = suite.diagnosis_metrics("plant_x", diag)
+    assert m == {"plant_x_rts_matched_ratio": 0.88, "plant_x_innov_p_r": 1e-9,
+                 "plant_x_innov_p_ay": 0.3}
+    m = suite.diagnosis_metrics("revs", {**diag, "innov_p_ay": float("nan")})
+    assert set(m) == {"revs_rts_matched_ratio", "revs_innov_p_r"}     # no a_y channel
