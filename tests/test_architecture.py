@@ -22,7 +22,7 @@ from vehicle_observers.data.logs import repo_root
 PKG = "vehicle_observers"
 SRC = repo_root() / "lib" / PKG
 LAYER = {"core": 0, "models": 1, "design": 2, "data": 2, "observers": 3, "results": 3,
-         "baselines": 4, "papers": 5, "cli": 6, "bench": 7}
+         "baselines": 4, "estimation": 5, "papers": 5, "cli": 6, "bench": 7}
 ROOT_MODULES = {"__init__": 0.5, "__main__": 8}  # the root re-exports core errors; __main__ runs cli
 
 

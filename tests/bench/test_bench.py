@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 from vehicle_observers.bench import suite as B
-from vehicle_observers.cli.registry import score
+from vehicle_observers.estimation import score
 
 
 @pytest.fixture(scope="module")

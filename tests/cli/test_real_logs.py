@@ -12,8 +12,8 @@ import time
 import numpy as np
 import pytest
 from conftest import KALMAN, emulate, save, speed_profile, take
-from vehicle_observers.cli import registry as RG
-from vehicle_observers.cli import segments as SG
+from vehicle_observers.estimation import kalman_runs as RG
+from vehicle_observers.estimation import segments as SG
 from vehicle_observers.cli.main import EXIT_INPUT, CLIError, _check_output, main
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import load_log, partial_path
@@ -479,7 +479,7 @@ def test_jitter_uses_real_timestamps(capsys, tmp_path, car):
 def test_interval_runs_on_equal_steps_chain_exactly():
     """Splitting the run at each change of the step gives the same boxes as one run where
     the step is constant (the state is carried over exactly)."""
-    from vehicle_observers.cli.adapters import dt_runs, interval_design, interval_real_dt
+    from vehicle_observers.estimation.adapters import dt_runs, interval_design, interval_real_dt
     from vehicle_observers.models.vehicle import load_vehicle
 
     veh = load_vehicle("revs250lm")

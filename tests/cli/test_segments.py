@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from vehicle_observers.cli import segments
+from vehicle_observers.estimation import segments
 from vehicle_observers.models.vehicle import load_vehicle
 
 

@@ -6,7 +6,7 @@ imports, loading the numba kernels from their cache, reading, tuning, filtering,
 1. ``estimate`` on the shipped Revs log (55,001 rows at 100 Hz) with ``--observer ekf`` and
    the built-in ``revs250lm`` vehicle (no ``[kalman]`` table: the ML noise tuning runs on the
    first 120 s at the log's rate and is cached per window data and vehicle,
-   :func:`registry.kalman_tuning`): at most :data:`TARGET_REVS_S` s, measured with an empty
+   :func:`kalman_runs.kalman_tuning`): at most :data:`TARGET_REVS_S` s, measured with an empty
    tuning cache and with the tuning cached. The ``v_y`` RMSE (against the log's INS ``v_y``)
    with that tuning is reported beside the RMSE with the window thinned to 25 Hz (the
    other way to make the tuning cheaper, which loses accuracy).
@@ -79,9 +79,9 @@ THINNED_HZ = 25.0
 
 def tuning_accuracy() -> dict:
     """``v_y`` RMSE of the EKF on the whole Revs log with the ML tuning used by the command
-    line (the log's full 100 Hz, :data:`registry.TUNE_RATE_HZ`) and with the tuning window
+    line (the log's full 100 Hz, :data:`kalman_runs.TUNE_RATE_HZ`) and with the tuning window
     thinned to :data:`THINNED_HZ`, and the tuning times (wall clock)."""
-    from vehicle_observers.cli import registry as RG
+    from vehicle_observers.estimation import kalman_runs as RG
     from vehicle_observers.core.metrics import rmse
     from vehicle_observers.data.logs import load_revs
     from vehicle_observers.models.vehicle import load_vehicle

@@ -14,10 +14,10 @@ first scored sample; their rows say so (``samples`` column), their accuracy is o
 window and they get no ratio against the whole-run EKF/RTS.
 
 Kalman noise tuning: ML on the measured channels of each log's first 120 s
-(:func:`registry.kalman_tuning`); the 7 s sine-with-dwell is too short for ML and reuses the
+(:func:`kalman_runs.kalman_tuning`); the 7 s sine-with-dwell is too short for ML and reuses the
 tuning of the Satory run with the same noise level (same car and sensors).
 
-Metrics (:func:`registry.score`): RMSE / max error of ``v_y``, sideslip, yaw rate (against the
+Metrics (:func:`scoring.score`): RMSE / max error of ``v_y``, sideslip, yaw rate (against the
 noise-free yaw rate in emulated logs, the measured one on the real log), axle forces where
 the log has them; interval enclosure and mean width. Emulated runs are scored where
 ``v_x > 1 m/s`` and ``t > 1 s`` (the run starts from 0.2 m/s where every model is singular);
@@ -43,7 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vehicle_observers.cli import registry as RG
+from vehicle_observers import estimation as EST
+from vehicle_observers.estimation import kalman_runs as KR
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import DriveLog, load_revs, repo_root
 from vehicle_observers.models.vehicle import load_vehicle
@@ -117,7 +118,7 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
     with 120 iterations against 0.0015 with 300). Returns ``{"rows": [...], "estimates":
     {(dataset, obs): Estimates}, "logs": {...}, "tunings": {...}, "errors": [...]}``."""
     filterpy_steps = filterpy_steps or (3000 if quick else 60000)
-    obs = RG.available()
+    obs = EST.available()
     if observers is not None:
         obs = {k: v for k, v in obs.items() if k in observers}
     vehicles = {n: load_vehicle(n) for n in ("yacine2015", "revs250lm")}
@@ -131,7 +132,7 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
         elif dname == "swd":
             tun, tsec = tunings["satory_n1"]
         else:
-            tun, tsec = RG.kalman_tuning(log, veh, maxiter=tune_maxiter)
+            tun, tsec = KR.kalman_tuning(log, veh, maxiter=tune_maxiter)
         if tun is not None:
             tunings[dname] = (tun, tsec)
         for oname, spec in obs.items():
@@ -153,10 +154,10 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
             except Exception as exc:  # noqa: BLE001 - reported in the table
                 errors.append(f"{dname}/{oname}: {type(exc).__name__}: {exc}")
                 continue
-            if est.observer.startswith(("ekf", "ukf", "rts")):
+            if est.estimator.startswith(("ekf", "ukf", "rts")):
                 est.design_seconds = tsec
             ests[(dname, oname)] = est
-            m = RG.score(est, lg, mk)
+            m = EST.score(est, lg, mk)
             row = {"dataset": dname, "observer": oname, "causal": est.causal,
                    "samples": len(lg), **m, "us_per_step": est.us_per_step,
                    "realtime_factor": lg.duration / max(est.seconds, 1e-12),
@@ -591,23 +592,23 @@ def plant_stiffness_box(log: DriveLog, params, min_slip_deg: float = 0.5) -> dic
 def independent_plant_rows(seed: int = 0, quick: bool = False, manoeuvres=PLANT_MANOEUVRES,
                            observers=PLANT_OBSERVERS) -> list[dict]:
     """One row per (manoeuvre, estimator) on the plant, plus ``open-loop-linear``; each row
-    has the :func:`~vehicle_observers.cli.registry.score` metrics over ``t > 1 s``."""
+    has the :func:`~vehicle_observers.estimation.scoring.score` metrics over ``t > 1 s``."""
     from vehicle_observers.data import plant
 
     veh = plant_vehicle()
-    obs = RG.available()
+    obs = EST.available()
     rows = []
     for name in manoeuvres:
         log = plant.plant_log(name, seed=seed, quick=quick)
         mask = log.t - log.t[0] > 1.0
-        tun, _ = RG.kalman_tuning(log, veh)
+        tun, _ = KR.kalman_tuning(log, veh)
         ol = open_loop_linear(log, veh.params)
         rows.append({"dataset": f"plant_{name}", "observer": "open-loop-linear",
                      "causal": True, "rmse_vy": rmse(ol, log.vy, mask)})
         for o in observers:
             est = obs[o].run(log, veh, tuning=tun)
             rows.append({"dataset": f"plant_{name}", "observer": o, "causal": est.causal,
-                         **RG.score(est, log, mask)})
+                         **EST.score(est, log, mask)})
             if o == "rts":
                 rows[-1].update(rts_diagnosis(log, veh.params, tun, mask))
         rows[-len(observers) - 1].update(plant_stiffness_box(log, veh.params))
@@ -705,7 +706,7 @@ def interval_certification_rows(seed: int = 0, duration: float = 30.0) -> list[d
     LMI margin, Metzler margin) and the enclosure rate on a matched-model run (the LPV
     bicycle, Euler at the car's log period, seeded random stiffness in the box, speeds
     sweeping the bands)."""
-    from vehicle_observers.cli import adapters
+    from vehicle_observers.estimation import adapters
     from vehicle_observers.observers import interval as iv
     from vehicle_observers.observers import interval_coordinates as ic
 

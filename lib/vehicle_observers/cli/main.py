@@ -1,6 +1,6 @@
 """Command line: estimate lateral states on your own log.
 
-    python -m vehicle_observers observers
+    python -m vehicle_observers [--plugin MODULE ...] observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
         --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
         [--progress/--no-progress]
@@ -17,7 +17,7 @@ delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy
 (``yacine2015``, ``revs250lm``). The output CSV has ``t_s`` and one column per estimate with
 its unit in the name, plus ``low_speed`` (1 where the kinematic low-speed model replaced the
 observer: standstill, v_x < 2 m/s) and ``reinit`` (1 on the first row after a time gap longer
-than ``--max-gap``; the observer restarts there), see :mod:`vehicle_observers.cli.segments`.
+than ``--max-gap``; the observer restarts there), see :mod:`vehicle_observers.estimation.segments`.
 The output is written to ``EST.csv.partial-<pid>`` next to it and renamed when complete (the
 partial file is created first, so an unwritable folder fails at once; it is removed on
 errors and SIGTERM, and by the next run if a SIGKILL left it). ``--out`` equal to the log is
@@ -27,6 +27,11 @@ log that really is out of range) and an output with NaN/inf, or ``|v_y|`` above 
 error, not a result. When the log has reference columns the benchmark metrics are printed.
 Errors: one line on stderr, exit status 2 (bad input), 3 (unexpected internal error), 143
 (SIGTERM); never a traceback, never a warning line.
+
+Estimators come from :mod:`vehicle_observers.estimation.registry`: the built-in ones, the
+plug-ins installed under the entry-point group ``vehicle_observers.estimators``, the modules
+named in ``$VEHICLE_OBSERVERS_PLUGINS`` and those given with ``--plugin MODULE`` (a module on
+``sys.path``, or a ``.py`` file).
 """
 
 from __future__ import annotations
@@ -70,6 +75,9 @@ def _add_common(p):
 def _parser():
     p = argparse.ArgumentParser(prog="python -m vehicle_observers",
                                 description="Vehicle lateral-state observers on drive logs.")
+    p.add_argument("--plugin", action="append", default=[], metavar="MODULE",
+                   help="import MODULE (dotted name, or a .py file) before listing or running: "
+                        "its estimators are registered (repeatable)")
     sub = p.add_subparsers(dest="cmd", required=True)
     sub.add_parser("observers", help="list the observers and what each needs")
     e = sub.add_parser("estimate", help="run one observer on a log and write the estimates")
@@ -87,12 +95,36 @@ def _parser():
     return p
 
 
-def cmd_observers(out=None):
+def _plugins(args) -> list[str]:
+    """``--plugin`` values as module names: a ``.py`` path puts its folder on ``sys.path``."""
+    mods = []
+    for m in getattr(args, "plugin", None) or []:
+        if m.endswith(".py"):
+            f = Path(m).resolve()
+            if not f.is_file():
+                raise CLIError(f"--plugin {m}: no such file")
+            sys.path.insert(0, str(f.parent))
+            m = f.stem
+        mods.append(m)
+    return mods
+
+
+def _available(args):
+    from vehicle_observers.core.errors import RegistryError
+    from vehicle_observers.estimation import available
+
+    try:
+        return available(_plugins(args))
+    except RegistryError as e:
+        raise CLIError(str(e)) from None
+
+
+def cmd_observers(out=None, args=None):
     out = out or sys.stdout
-    from vehicle_observers.cli.registry import BASE_COLUMNS, available
+    from vehicle_observers.estimation.registry import BASE_COLUMNS
 
     print(f"every observer reads: {', '.join(BASE_COLUMNS)}", file=out)
-    for name, s in available().items():
+    for name, s in _available(args).items():
         need = ", ".join(s.columns) or "-"
         opt = ", ".join(s.optional_columns) or "-"
         veh = ", ".join(k for k in s.vehicle_keys)
@@ -197,11 +229,11 @@ class _Bar:
 
 def cmd_estimate(args, out=None):
     out = out or sys.stdout
-    from vehicle_observers.cli.registry import available, score
     from vehicle_observers.data.logs import OPTIONAL, REQUIRED, AtomicOutput
+    from vehicle_observers.estimation import score
     from vehicle_observers.models.vehicle import load_vehicle
 
-    obs = available()
+    obs = _available(args)
     if args.observer not in obs:
         raise CLIError(f"unknown observer {args.observer!r}; available: {', '.join(obs)}")
     spec = obs[args.observer]
@@ -221,10 +253,9 @@ def cmd_estimate(args, out=None):
             # refused), plus the emulated logs' yaw-rate truth used for scoring
             cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
             log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
-            spec.check(log, vehicle)
             bar.stage(10, "design / tuning")
-            est = spec.run(log, vehicle, window_s=args.tune_window, progress=bar.observer,
-                           max_gap=args.max_gap, cache=True)
+            est = spec.estimate(log, vehicle, window_s=args.tune_window,
+                                progress=bar.observer, max_gap=args.max_gap, cache=True)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
             bar.stage(85, "writing")
@@ -242,13 +273,13 @@ def cmd_estimate(args, out=None):
 
 def _report(args, spec, est, log, vehicle, out_path, m, out):
     n = len(est.t)
-    low = int(np.sum(est.columns["low_speed"]))
+    low = int(np.sum(est.flags["low_speed"]))
     print(f"{spec.name} on {Path(args.log).name} ({n} samples, {log.duration:.1f} s) with "
           f"{vehicle.name}: {est.us_per_step:.3g} us/step (compiled kernels), real-time factor "
           f"{log.duration / max(est.seconds, 1e-12):.3g}x; design/tuning "
           f"{est.design_seconds:.2f} s", file=out)
     print(f"low-speed model on {low} row(s) (low_speed = 1); "
-          f"{int(np.sum(est.columns['reinit']))} re-initialisation(s) after gaps > "
+          f"{int(np.sum(est.flags['reinit']))} re-initialisation(s) after gaps > "
           f"{args.max_gap:g} s (reinit = 1)", file=out)
     if not est.causal:
         print("note: this estimator is OFFLINE (uses future samples)", file=out)
@@ -262,7 +293,7 @@ def _report(args, spec, est, log, vehicle, out_path, m, out):
 
 def cmd_tune(args, out=None):
     out = out or sys.stdout
-    from vehicle_observers.cli.registry import kalman_tuning
+    from vehicle_observers.estimation.kalman_runs import kalman_tuning
     from vehicle_observers.models.vehicle import load_vehicle
 
     _check_args(args)
@@ -302,7 +333,7 @@ def _input_errors():
 def _run(args):
     try:
         if args.cmd == "observers":
-            return cmd_observers()
+            return cmd_observers(args=args)
         if args.cmd == "tune":
             return cmd_tune(args)
         if args.cmd == "identify":

@@ -39,3 +39,13 @@ class PremiseOutOfBounds(ValueError):
         self.index = index
         self.value = value
         self.bounds = bounds
+
+
+class ObserverArgumentError(ValueError):
+    """An argument of a public design or run function is wrong (sign, shape, finiteness,
+    time step): the message names the argument and what was expected."""
+
+
+class RegistryError(ValueError):
+    """An estimator registration or look-up is wrong (unknown name, duplicate name, a
+    plug-in that does not follow the estimator protocol): the message names it."""

@@ -1,9 +1,9 @@
-"""Registry adapters for the observers of the other modules (imported by the package ``cli``).
+"""Registry adapters for the observers of the other modules (imported by the package ``estimation``).
 
 Each adapter builds the observer's design from a :class:`~vehicle_observers.models.vehicle.Vehicle`
 (mass, inertia, axle distances, tyres, ``[uncertainty]`` box) with a rule that applies to
 any vehicle file, runs it on a :class:`~vehicle_observers.data.logs.DriveLog` and returns
-:class:`~vehicle_observers.cli.registry.Estimates`. The observers themselves are not changed.
+:class:`~vehicle_observers.core.protocol.Trajectory`. The observers themselves are not changed.
 
 - ``ts-yacine2015``: Yacine 2015 TS observer (31) with Theorem 1 (33) (:mod:`.observers.ts_premise`).
   Needs the vision channels ``yL_m, psiL_rad`` (the premise ``v_y`` comes from them, (26)).
@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vehicle_observers.cli import segments
-from vehicle_observers.cli.registry import Estimates, ObserverSpec, register
 from vehicle_observers.core.errors import LogFormatError
+from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.estimation import kalman_runs  # noqa: F401  (the Kalman family first)
+from vehicle_observers.estimation import segments
+from vehicle_observers.estimation.registry import VEHICLE_KEYS, EstimatorSpec, register
 from vehicle_observers.models.vehicle import VehicleFileError
-
-VEHICLE_KEYS = ("m", "I_z", "a_f", "a_r", "tire_front", "tire_rear")
 
 
 def _noise_std(x):
@@ -99,10 +99,13 @@ def _run_ts(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
     one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "Ff_N", "Fr_N")
     cols, wall, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log),
                                            max_gap, progress)
-    return Estimates("ts-yacine2015", log.t, cols, wall, sec, True,
-                     {"clipped_share": info["clipped"] / len(log), "stretches": n,
-                      "lmi_margin": des.margins()["xi_original_min_margin"],
-                      "note": "wall time includes the vision-chain differentiators"})
+    return Trajectory.from_columns(log.t, cols, seconds=wall, design_seconds=sec,
+                                   estimator="ts-yacine2015",
+                                   info={"clipped_share": info["clipped"] / len(log),
+                                         "stretches": n,
+                                         "lmi_margin": des.margins()["xi_original_min_margin"],
+                                         "note": "wall time includes the vision-chain "
+                                                 "differentiators"})
 
 
 #: largest relative spread of the sampling interval the fixed-step observers accept
@@ -120,13 +123,13 @@ def _regular(log, name):
                              f"'interval-ifqir2017', which use the real timestamps)")
 
 
-register(ObserverSpec(
+register(EstimatorSpec(
     "ts-yacine2015",
     "Yacine 2015 TS observer (31), Theorem 1 LMI (33), premise v_y from vision (26)",
     _run_ts, columns=("yL_m", "psiL_rad"),
     vehicle_keys=VEHICLE_KEYS + ("l_s", "uncertainty.vx_min", "uncertainty.vx_max",
                                  "uncertainty.slip_max_deg"),
-    paper="Yacine 2015"))
+    paper="Yacine 2015", origin=__name__))
 
 
 # ------------------------------------------------------------------ Ifqir 2017 interval --
@@ -196,7 +199,7 @@ INTERVAL_COLUMNS = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_lo_mps", "vy_hi_
 
 def _interval_stretches(des, log, vehicle, max_gap, progress, run=None):
     """Run an interval observer over the moving stretches of ``log`` (real timestamps, low
-    speed and gaps handled by :mod:`.cli.segments`). Returns (columns, wall [s], stretches,
+    speed and gaps handled by :mod:`.estimation.segments`). Returns (columns, wall [s], stretches,
     y_noise, steer_noise)."""
     y_noise = 4.0 * max(_noise_std(log.yaw_rate), 1e-4)
     d_noise = 4.0 * max(_noise_std(log.delta), 1e-4)
@@ -223,22 +226,23 @@ def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
     cols, wall, n, y_noise, d_noise = _interval_stretches(des, log, vehicle, max_gap, progress)
     edges = des.model.bands.edges
     moving = ~cols["low_speed"]
-    return Estimates("interval-ifqir2017", log.t, cols, wall, sec, True,
-                     {"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
-                      "n_clipped": int(np.sum(moving & ((log.vx < edges[0])
-                                                        | (log.vx > edges[-1])))),
-                      "gamma": des.gamma, "lmi_margin": des.lmi_margin,
-                      "metzler_margin": des.min_metzler_margin})
+    return Trajectory.from_columns(log.t, cols, seconds=wall, design_seconds=sec,
+                                   estimator="interval-ifqir2017",
+                                   info={"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
+                                         "n_clipped": int(np.sum(moving & ((log.vx < edges[0])
+                                                                 | (log.vx > edges[-1])))),
+                                         "gamma": des.gamma, "lmi_margin": des.lmi_margin,
+                                         "metzler_margin": des.min_metzler_margin})
 
 
-register(ObserverSpec(
+register(EstimatorSpec(
     "interval-ifqir2017",
     "Ifqir 2017 switched TS interval observer (11), Theorem 2 LMI; bounds on vy and r "
     "(point estimate = interval midpoint)",
     _run_interval,
     vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
                                  "uncertainty.vx_max"),
-    interval=True, paper="Ifqir 2017"))
+    interval=True, paper="Ifqir 2017", origin=__name__))
 
 
 # ------------------------------------------------------------------ interval, any car -----
@@ -278,17 +282,21 @@ def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress
     cols, wall, n, y_noise, d_noise = _interval_stretches(cd, log, vehicle, max_gap, progress,
                                                           run=_ic.run)
     d = cd.design
-    return Estimates("interval-coordinates", log.t, cols, wall, sec, True,
-                     {"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
-                      "kappa": cd.kappa, "gamma": d.gamma, "lmi_margin": d.lmi_margin,
-                      "metzler_margin": d.min_metzler_margin, "certified": cd.certified})
+    return Trajectory.from_columns(log.t, cols, seconds=wall, design_seconds=sec,
+                                   estimator="interval-coordinates",
+                                   info={"y_noise": y_noise, "steer_noise": d_noise, "stretches": n,
+                                         "kappa": cd.kappa, "gamma": d.gamma,
+                                         "lmi_margin": d.lmi_margin,
+                                         "metzler_margin": d.min_metzler_margin,
+                                         "certified": cd.certified})
 
 
-register(ObserverSpec(
+register(EstimatorSpec(
     "interval-coordinates",
     "Ifqir 2017 interval observer (11) in z = T x (Raissi 2012 change of coordinates): "
     "certified for any car, incl. neutral / oversteer boxes refused by interval-ifqir2017",
     _run_interval_coordinates,
     vehicle_keys=VEHICLE_KEYS + ("uncertainty.stiffness_rel", "uncertainty.vx_min",
                                  "uncertainty.vx_max"),
-    interval=True, paper="Ifqir 2017; Raissi, Efimov, Zolghadri 2012"))
+    interval=True, paper="Ifqir 2017; Raissi, Efimov, Zolghadri 2012",
+    origin=__name__))

@@ -121,11 +121,13 @@ def kinematic(log: DriveLog, vehicle, rows) -> dict:
             "vy_lo_mps": vy - half, "vy_hi_mps": vy + half}
 
 
-def run_stretches(run, log: DriveLog, vehicle, ok, max_gap=MAX_GAP_S, progress=None):
+def run_stretches(run, log: DriveLog, vehicle, ok, max_gap=MAX_GAP_S, progress=None,
+                  warm_up: bool = True):
     """Run ``run(sub_log, first_row) -> (columns dict, seconds)`` on every stretch and fill
     the other rows with :func:`kinematic`; yaw-rate bounds ``yaw_rate_lo/hi_radps`` there are
     the measured value +- ``run.r_noise`` (0 if unset). A first call on :data:`MIN_RUN` rows
-    loads (or compiles) the numba kernels so the returned seconds exclude compilation.
+    loads (or compiles) the numba kernels so the returned seconds exclude compilation
+    (``warm_up=False`` skips it).
     Returns (columns with ``low_speed``/``reinit``, seconds summed over the stretches,
     number of stretches)."""
     N = len(log)
@@ -134,7 +136,7 @@ def run_stretches(run, log: DriveLog, vehicle, ok, max_gap=MAX_GAP_S, progress=N
     low = np.ones(N, bool)
     sec = 0.0
     done = 0
-    if runs:
+    if runs and warm_up:
         run(view(log, runs[0][0], runs[0][0] + MIN_RUN), runs[0][0])   # warm-up, discarded
     for a, b in runs:
         c, s = run(view(log, a, b), a)

@@ -1,0 +1,20 @@
+"""Estimation on drive logs: the estimator registry (open to plug-ins), adapters, stretches."""
+
+from vehicle_observers.core.protocol import Observer, ObserverBase, Trajectory, run_readable
+from vehicle_observers.estimation import (
+    adapters,  # noqa: F401  (registers the paper observers, after the Kalman family)
+    kalman_runs,  # noqa: F401  (registers ekf, ekf-filterpy, ukf, rts)
+)
+from vehicle_observers.estimation.registry import (
+    EstimatorSpec,
+    available,
+    estimator,
+    get,
+    load_plugins,
+    register,
+    register_observer,
+)
+from vehicle_observers.estimation.scoring import score
+
+__all__ = ["EstimatorSpec", "Observer", "ObserverBase", "Trajectory", "available", "estimator",
+           "get", "load_plugins", "register", "register_observer", "run_readable", "score"]
