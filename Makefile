@@ -49,7 +49,7 @@ lab: $(STAMP)
 	$(BIN)/jupyter lab --notebook-dir=$(LAB_DIR) $(ROOT_ARGS) $(LAB_ARGS)
 
 bench: $(STAMP)
-	$(BIN)/python -m vehicle_observers.bench
+	$(BIN)/python -m vehicle_observers_papers.benchmark_study
 
 lint: $(STAMP)
 	$(BIN)/ruff check lib tests notebooks

@@ -2,8 +2,11 @@
 
 Layers, lowest first (a module may import only from lower layers or from its own subpackage):
 
-    core  <-  models  <-  design, data  <-  observers, results  <-  baselines  <-  papers
+    core  <-  models  <-  design, data  <-  observers, results  <-  baselines  <-  estimation
           <-  cli  <-  bench
+
+The reproductions (``lib/vehicle_observers_papers``) sit beside the library: they import it,
+and the library never imports them (nor any other package of this repository but itself).
 
 Every ``import`` counts, including those inside functions (a lazy import is still a
 dependency). The checker reads the sources with ``ast``; the last tests plant a reverse import
@@ -22,7 +25,9 @@ from vehicle_observers.data.logs import repo_root
 PKG = "vehicle_observers"
 SRC = repo_root() / "lib" / PKG
 LAYER = {"core": 0, "models": 1, "design": 2, "data": 2, "observers": 3, "results": 3,
-         "baselines": 4, "estimation": 5, "papers": 5, "cli": 6, "bench": 7}
+         "baselines": 4, "estimation": 5, "cli": 6, "bench": 7}
+#: packages of this repository the library must never import
+BESIDE = ("vehicle_observers_papers",)
 ROOT_MODULES = {"__init__": 0.5, "__main__": 8}  # the root re-exports core errors; __main__ runs cli
 
 
@@ -31,6 +36,26 @@ def module_name(path: Path, src: Path) -> str:
     if parts[-1] == "__init__":
         parts = parts[:-1]
     return ".".join([PKG, *parts])
+
+
+def foreign_imports(src: Path) -> list[str]:
+    """Every import (module level or inside a function) of a package in :data:`BESIDE`
+    by a library module, as ``file:line: module``."""
+    bad = []
+    for f in sorted(src.rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text(), filename=str(f))):
+            mods = []
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                mods = [node.module or ""]
+            elif (isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(
+                    node.func, "id", "")) in ("import_module", "__import__") and node.args
+                  and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+                mods = [node.args[0].value]
+            bad += [f"{f.relative_to(src.parent)}:{node.lineno}: {m}" for m in mods
+                    if m.split(".")[0] in BESIDE]
+    return bad
 
 
 def imports_of(path: Path, name: str) -> list[tuple[int, str]]:
@@ -157,6 +182,21 @@ def test_imports_point_one_way():
     assert not bad, "imports against the layer direction:\n" + "\n".join(bad)
 
 
+def test_the_library_never_imports_the_reproductions():
+    bad = foreign_imports(SRC)
+    assert not bad, "the library imports the reproductions:\n" + "\n".join(bad)
+
+
+def test_the_reproductions_are_a_package_beside_the_library():
+    papers = SRC.parent / BESIDE[0]
+    folders = sorted(p.parent.name for p in papers.glob("*/__init__.py"))
+    assert folders, "no reproduction folders"
+    import re
+    for f in folders:   # one folder per paper, <author>_<year>, and the benchmark study
+        assert re.fullmatch(r"[a-z]+_(19|20)\d\d", f) or f == "benchmark_study", f
+    assert not (SRC / "papers").exists(), "paper code inside the library"
+
+
 def test_no_import_cycle():
     cyc = cycles(SRC)
     assert not cyc, f"import cycles: {cyc}"
@@ -176,6 +216,19 @@ def test_a_planted_reverse_import_is_caught(package_copy):
     bad = direction_violations(package_copy)
     assert len(bad) == 1
     assert "models/tires.py" in bad[0] and "vehicle_observers.observers.dmvt" in bad[0]
+
+
+@pytest.mark.parametrize("line", [
+    "from vehicle_observers_papers.ifqir_2017 import constants  # noqa",
+    "    import vehicle_observers_papers.rabhi_2004.constants  # noqa",
+    "    importlib.import_module('vehicle_observers_papers.yacine_2015.constants')",
+])
+def test_a_planted_import_of_the_reproductions_is_caught(package_copy, line):
+    mod = package_copy / "observers" / "dmvt.py"
+    body = line if not line.startswith(" ") else "def _planted():\n" + line
+    mod.write_text(mod.read_text() + "\n\nimport importlib  # noqa\n" + body + "\n")
+    bad = foreign_imports(package_copy)
+    assert len(bad) == 1 and "observers/dmvt.py" in bad[0] and "vehicle_observers_papers" in bad[0]
 
 
 def test_a_planted_cycle_is_caught(package_copy):

@@ -7,7 +7,7 @@ from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.baselines.filterpy_generic import numerical_jacobian, rk4_step, run_ekf
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 BP, C = ic.params, ic.C
 XHAT0 = np.array([0.1, -0.1, 0.1, 0.5])

@@ -10,8 +10,8 @@ from vehicle_observers.data.logs import DriveLog, load_revs
 from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.tires import LinearTire
-from vehicle_observers.papers import revs250lm as R
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.leanza_2021 import constants as R
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 TUN = K.KalmanTuning(q_vy=0.27, q_r=2e-3, q_b=0.4, R_r=1.6e-5, R_ay=1.3)
 

@@ -120,7 +120,7 @@ def test_part_a_run_same_data_and_metrics(monkeypatch):
     """The EKF runner sees exactly the SMO's measurements (same array, not just the same
     shape: a different seed fails), averaged over blocks of 10, and reports the SMO's metric
     against the block means of the true forces."""
-    from vehicle_observers.papers import rabhi2004 as R
+    from vehicle_observers_papers.rabhi_2004 import constants as R
 
     man = pl.paper_manoeuvre(2.0, 5e-4)
     Xs = pl.simulate(pl.free_rolling_state(man.v0, P), man.U, 5e-4, P)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from vehicle_observers.baselines import uio_ekf as ub
 from vehicle_observers.observers import uio
-from vehicle_observers.papers import elyoussfi2020 as P
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
 
 T_FAULT, T_END = 1.5, 4.0
 

@@ -5,8 +5,8 @@ import json
 
 import numpy as np
 import pytest
-from vehicle_observers.bench import suite as B
 from vehicle_observers.estimation import score
+from vehicle_observers_papers.benchmark_study import suite as B
 
 
 @pytest.fixture(scope="module")

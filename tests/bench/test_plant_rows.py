@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from vehicle_observers.bench import suite
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.lateral import simulate_s1
+from vehicle_observers_papers.benchmark_study import suite as suite
 
 
 def _linear_log(scale_f=1.0, scale_r=1.0):

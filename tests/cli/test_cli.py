@@ -7,10 +7,10 @@ import sys
 import numpy as np
 import pytest
 from vehicle_observers.baselines import kalman as K
-from vehicle_observers.estimation import kalman_runs as RG
 from vehicle_observers.cli.main import EXIT_INPUT, main
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import load_log, load_revs
+from vehicle_observers.estimation import kalman_runs as RG
 from vehicle_observers.models.vehicle import builtin_vehicles, load_vehicle
 
 KALMAN_TABLE = """

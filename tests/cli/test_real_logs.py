@@ -12,11 +12,11 @@ import time
 import numpy as np
 import pytest
 from conftest import KALMAN, emulate, save, speed_profile, take
-from vehicle_observers.estimation import kalman_runs as RG
-from vehicle_observers.estimation import segments as SG
 from vehicle_observers.cli.main import EXIT_INPUT, CLIError, _check_output, main
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import load_log, partial_path
+from vehicle_observers.estimation import kalman_runs as RG
+from vehicle_observers.estimation import segments as SG
 from vehicle_observers.models.vehicle import builtin_vehicles
 
 

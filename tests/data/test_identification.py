@@ -3,7 +3,7 @@ import pytest
 from vehicle_observers.data import identification as ident
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models import lateral
-from vehicle_observers.papers import revs250lm as R
+from vehicle_observers_papers.leanza_2021 import constants as R
 
 
 def test_identify_friction_recovers_known_mu():

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from vehicle_observers.data import scenarios
 from vehicle_observers.models import lateral
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 P = Y.params
 

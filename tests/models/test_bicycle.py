@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 from vehicle_observers.models import bicycle
-from vehicle_observers.papers import ichalal2011 as I
+from vehicle_observers_papers.ichalal_2011 import constants as I
 
 bp = I.params
 

@@ -4,8 +4,8 @@ from scipy.integrate import solve_ivp
 from vehicle_observers.models import lateral
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.tires import LinearTire
-from vehicle_observers.papers import revs250lm as R
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.leanza_2021 import constants as R
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 p = Y.params
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 from vehicle_observers.models.tires import LinearTire, Pacejka, relaxation_rhs
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 
 def magic_formula_reference(alpha, B, C, D, E):

@@ -3,8 +3,8 @@ import pytest
 from vehicle_observers.core.errors import PremiseOutOfBounds
 from vehicle_observers.models import bicycle, lateral
 from vehicle_observers.models.ts import Premise, SectorTS, memberships, vertex_bits
-from vehicle_observers.papers import ichalal2011 as I
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.ichalal_2011 import constants as I
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 
 def test_memberships_convex_and_vertex_order():

@@ -3,8 +3,8 @@
 import pytest
 from vehicle_observers.models.tires import LinearTire
 from vehicle_observers.models.vehicle import VehicleFileError, builtin_vehicles, load_vehicle
-from vehicle_observers.papers import revs250lm as R
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.leanza_2021 import constants as R
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 
 @pytest.mark.parametrize("name, params", [("yacine2015", Y.params), ("revs250lm", R.params)])

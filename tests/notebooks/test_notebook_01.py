@@ -8,7 +8,7 @@ the Revs log (150-250 s).
 
 import numpy as np
 import pytest
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb01")]
 

@@ -8,7 +8,7 @@ import math
 import nbformat
 import pytest
 from vehicle_observers.data.logs import repo_root
-from vehicle_observers.papers import ifqir2017 as IF
+from vehicle_observers_papers.ifqir_2017 import constants as IF
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb03")]
 

@@ -7,7 +7,7 @@ Quick mode: 12 s run (fault at 8 s), feasibility map alpha in {0.5, 1.2} 1/s x p
 
 import numpy as np
 import pytest
-from vehicle_observers.papers import elyoussfi2020 as P
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb06")]
 

@@ -6,7 +6,7 @@ import pytest
 from vehicle_observers.baselines import kalman as K
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import load_revs
-from vehicle_observers.papers import revs250lm as R
+from vehicle_observers_papers.leanza_2021 import constants as R
 
 pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb07")]
 #: metrics are stored at 4 significant digits

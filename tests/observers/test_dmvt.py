@@ -7,7 +7,7 @@ from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
 from vehicle_observers.design.lmi import disk, halfplane, sector
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 BP = ic.params
 

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
 from vehicle_observers.observers import interval as iv
-from vehicle_observers.papers import ifqir2017 as pp
+from vehicle_observers_papers.ifqir_2017 import constants as pp
 
 VEH = pp.vehicle
 DT = 0.001

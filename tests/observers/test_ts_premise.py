@@ -7,7 +7,7 @@ from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError
 from vehicle_observers.data import scenarios
 from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 P = Y.params
 

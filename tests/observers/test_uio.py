@@ -9,7 +9,7 @@ import pytest
 from scipy.linalg import expm
 from vehicle_observers.core.errors import InfeasibleDesign
 from vehicle_observers.observers import uio
-from vehicle_observers.papers import elyoussfi2020 as P
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
 
 
 @pytest.fixture(scope="module")

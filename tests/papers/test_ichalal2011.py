@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 
 def _printed_h(xi1, xi2):

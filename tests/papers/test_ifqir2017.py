@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from vehicle_observers.observers import interval as iv
-from vehicle_observers.papers import ifqir2017 as pp
-from vehicle_observers.papers import yacine2015 as yc
+from vehicle_observers_papers.ifqir_2017 import constants as pp
+from vehicle_observers_papers.yacine_2015 import constants as yc
 
 
 def test_printed_values_transcribed():

@@ -1,7 +1,7 @@
 """Helpers of notebook 01 (exactness.py) that are not covered by the notebook test."""
 
 import pytest
-from vehicle_observers.papers import nb01_ts_exactness as exactness
+from vehicle_observers_papers.yacine_2015 import ts_exactness as exactness
 
 
 def test_revs_fit_metrics_names_units_and_values():

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from vehicle_observers.data import scenarios
 from vehicle_observers.observers import ts_premise as to
-from vehicle_observers.papers import nb02_premise_estimation as ys
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
+from vehicle_observers_papers.yacine_2015 import premise_estimation as ys
 
 
 def test_mismatched_params_apply_the_stated_changes():

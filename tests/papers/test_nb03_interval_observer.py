@@ -12,8 +12,8 @@ import pytest
 from matplotlib.figure import Figure
 from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
 from vehicle_observers.observers import interval as iv
-from vehicle_observers.papers import ifqir2017 as IF
-from vehicle_observers.papers import nb03_interval_observer as ist
+from vehicle_observers_papers.ifqir_2017 import constants as IF
+from vehicle_observers_papers.ifqir_2017 import interval_observer as ist
 
 T_SHORT = 10.0   # s of the emulated run used here (the notebook: 40 s quick, full lap)
 

@@ -1,5 +1,5 @@
-"""Experiments and figures of notebook 04 (vehicle_observers.papers.nb04_bicycle_dmvt), on short horizons:
-each experiment against a known answer or an independent recomputation, each figure's axes."""
+"""Experiments and figures of notebook 04 (vehicle_observers_papers.ichalal_2011.bicycle_dmvt), on short
+horizons: each experiment against a known answer or an independent recomputation, each figure's axes."""
 
 import matplotlib
 import numpy as np
@@ -9,9 +9,9 @@ from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.core.metrics import overshoot
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
-from vehicle_observers.papers import nb04_bicycle_dmvt as ds
 from vehicle_observers.results.reporting import Report
+from vehicle_observers_papers.ichalal_2011 import bicycle_dmvt as ds
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 matplotlib.use("Agg")
 BP, C = ic.params, ic.C

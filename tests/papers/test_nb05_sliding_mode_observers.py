@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from vehicle_observers.models import fullcar
 from vehicle_observers.observers import sliding_mode as smo
-from vehicle_observers.papers import nb05_sliding_mode_observers as rs
-from vehicle_observers.papers import rabhi2004 as R
+from vehicle_observers_papers.rabhi_2004 import constants as R
+from vehicle_observers_papers.rabhi_2004 import sliding_mode_observers as rs
 
 T_A = 3.0   # s; metrics are taken after t_skip = 1 s
 T_B = 1.5

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from vehicle_observers.observers import uio
-from vehicle_observers.papers import elyoussfi2020 as P
-from vehicle_observers.papers import nb06_relaxed_uio as us
 from vehicle_observers.results.reporting import Report
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
+from vehicle_observers_papers.elyoussfi_2020 import relaxed_uio as us
 
 T_SHORT = P.t_fault + 1.0   # s: 1 s after the fault (notebook: 12 s quick, 20 s full)
 SEED = 3

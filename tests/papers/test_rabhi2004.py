@@ -6,7 +6,7 @@ import pytest
 from vehicle_observers.models import fullcar as fc
 from vehicle_observers.models import planar as pl
 from vehicle_observers.observers import sliding_mode as smo
-from vehicle_observers.papers import rabhi2004 as R
+from vehicle_observers_papers.rabhi_2004 import constants as R
 
 
 def test_omega_h_reproduce_the_planar_model():

@@ -5,7 +5,7 @@ import pytest
 from vehicle_observers.core.metrics import correlation, rmse
 from vehicle_observers.data import logs
 from vehicle_observers.models import lateral
-from vehicle_observers.papers import revs250lm as R
+from vehicle_observers_papers.leanza_2021 import constants as R
 
 
 def test_constants_as_published():

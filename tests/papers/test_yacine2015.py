@@ -3,7 +3,7 @@ Pacejka coefficients, checked against the paper's numbers and its sector bounds.
 
 import numpy as np
 import pytest
-from vehicle_observers.papers import yacine2015 as Y
+from vehicle_observers_papers.yacine_2015 import constants as Y
 
 
 def test_table_I_constants():
@@ -61,6 +61,6 @@ def test_ts_model_vertices_match_eq_21():
 def test_shipped_vehicle_file_is_the_papers_car():
     """The library's default car (vehicle file ``yacine2015``) is exactly the paper module's."""
     from vehicle_observers.models.vehicle import load_vehicle
-    from vehicle_observers.papers import yacine2015
+    from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
     assert load_vehicle("yacine2015").params == yacine2015.params

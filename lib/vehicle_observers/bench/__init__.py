@@ -1,1 +1,1 @@
-"""Speed and accuracy benchmark (make bench) and the per-topic speed benchmarks."""
+"""Speed of the command line end to end (the accuracy and per-paper benchmark: vehicle_observers_papers)."""

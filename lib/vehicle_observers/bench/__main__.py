@@ -1,6 +1,10 @@
-"""``python -m vehicle_observers.bench``: the speed and accuracy benchmark (``make bench``)."""
+"""``python -m vehicle_observers.bench``: speed of the command line end to end (``make bench``
+runs it after the reproductions' benchmark, ``python -m vehicle_observers_papers.benchmark_study``)."""
 
-from vehicle_observers.bench.suite import main
+import sys
+
+from vehicle_observers.bench.cli import run
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    for row in run(quick="--quick" in sys.argv):
+        print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})

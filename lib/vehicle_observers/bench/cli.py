@@ -81,9 +81,9 @@ def tuning_accuracy() -> dict:
     """``v_y`` RMSE of the EKF on the whole Revs log with the ML tuning used by the command
     line (the log's full 100 Hz, :data:`kalman_runs.TUNE_RATE_HZ`) and with the tuning window
     thinned to :data:`THINNED_HZ`, and the tuning times (wall clock)."""
-    from vehicle_observers.estimation import kalman_runs as RG
     from vehicle_observers.core.metrics import rmse
     from vehicle_observers.data.logs import load_revs
+    from vehicle_observers.estimation import kalman_runs as RG
     from vehicle_observers.models.vehicle import load_vehicle
 
     log, veh = load_revs(), load_vehicle("revs250lm")

@@ -33,8 +33,10 @@ import numpy as np
 
 from vehicle_observers.core.errors import LogFormatError
 from vehicle_observers.core.protocol import Trajectory
-from vehicle_observers.estimation import kalman_runs  # noqa: F401  (the Kalman family first)
-from vehicle_observers.estimation import segments
+from vehicle_observers.estimation import (
+    kalman_runs,  # noqa: F401  (the Kalman family first)
+    segments,
+)
 from vehicle_observers.estimation.registry import VEHICLE_KEYS, EstimatorSpec, register
 from vehicle_observers.models.vehicle import VehicleFileError
 

@@ -9,6 +9,7 @@ from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import segments
 
+
 def score(est: Trajectory, log: DriveLog, mask=None) -> dict:
     """Benchmark metrics of ``est`` against the reference columns the log has.
 

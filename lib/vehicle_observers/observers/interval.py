@@ -25,7 +25,7 @@ bound, so vertex ``j = 0..3`` is ``(1/v_min, v_max), (1/v_min, v_min), (1/v_max,
 (1/v_max, v_min)``; the printed gains' pattern (``L^1, L^3`` more negative than ``L^2,
 L^4`` in every mode) is consistent with ``v_x`` being the fast index). The polarity of
 ``1/v_x`` is not printed: ``SwitchedIntervalModel(..., inv_vx_upper_first=False)`` swaps it
-(vertices 1-2 at ``1/v_max``); :mod:`vehicle_observers.papers.ifqir2017` uses that one (closer
+(vertices 1-2 at ``1/v_max``); :mod:`vehicle_observers_papers.ifqir_2017.constants` uses that one (closer
 to the printed gains). Vertex order only relabels the LMI unknowns; the observer kernel
 always receives its arrays in the standard order (``vertex_perm``).
 

@@ -1,7 +1,7 @@
 """Speed of the switched TS interval observer (Ifqir 2017, eq. (11)): a 350 s run at 1 kHz
 (350,000 samples) must take at most 2 s; plus the Theorem 2 LMI design and the LPV truth.
 
-    python -m vehicle_observers.bench.interval [--quick]
+    python -m vehicle_observers_papers.ifqir_2017.speed [--quick]
 """
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import sys
 import time
 
 import numpy as np
-
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.observers import interval as iv
-from vehicle_observers.papers import ifqir2017 as pp
+
+from vehicle_observers_papers.ifqir_2017 import constants as pp
 
 TARGET_SECONDS = 2.0   # 350 s of driving at 1 kHz in at most 2 s on a 2-core machine
 

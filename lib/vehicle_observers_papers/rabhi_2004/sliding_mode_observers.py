@@ -1,7 +1,7 @@
 """Experiments and figures of notebook 05 (Rabhi 2004, sliding-mode observers, Figs. 4-10).
 
 Each function runs one experiment of the notebook on the scenario runners of
-:mod:`vehicle_observers.papers.rabhi2004` (``part_a_truth``/``part_a_run``: planar vehicle
+:mod:`vehicle_observers_papers.rabhi_2004.constants` (``part_a_truth``/``part_a_run``: planar vehicle
 and force observer (9)-(22); ``part_b_run``: full car (23)-(29) and road-profile observer
 (30)-(38)) and returns plain dicts / lists, or builds one figure and returns the
 :class:`matplotlib.figure.Figure`, so the notebook stays a few lines per cell.
@@ -18,16 +18,16 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-
 from vehicle_observers.baselines import sliding_mode_ekf as pbl
 from vehicle_observers.core.arrays import decimate as _decimate
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.data import road
 from vehicle_observers.models import fullcar
 from vehicle_observers.observers import sliding_mode as smo
-from vehicle_observers.papers import rabhi2004 as R
 from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
+
+from vehicle_observers_papers.rabhi_2004 import constants as R
 
 PAPER = "Rabhi 2004"
 #: force-observer switching modes compared in Part A (order of the metrics)

@@ -6,7 +6,7 @@ Each function runs one experiment of the notebook and returns a plain dict (arra
 ``rep.metric(name, *v)``), and each ``fig_*`` function returns a matplotlib Figure, so the
 notebook stays a few lines per cell. Equations, the reconstruction of observer (11) and of
 Theorem 2: see :mod:`vehicle_observers.observers.interval`; printed constants:
-:mod:`vehicle_observers.papers.ifqir2017`.
+:mod:`vehicle_observers_papers.ifqir_2017.constants`.
 
 State ``x = [v_y (m/s), r (rad/s)]``; every ``(N, 2)`` array below has these two columns.
 """
@@ -14,11 +14,11 @@ State ``x = [v_y (m/s), r (rad/s)]``; every ``(N, 2)`` array below has these two
 from __future__ import annotations
 
 import numpy as np
-
 from vehicle_observers.data.logs import DriveLog, despike, load_revs
 from vehicle_observers.data.scenarios import NOISE_STD
 from vehicle_observers.observers import interval as iv
-from vehicle_observers.papers import ifqir2017 as IF
+
+from vehicle_observers_papers.ifqir_2017 import constants as IF
 
 #: initial box ``(x0_lo, x0_hi)`` of ``[v_y, r]`` [m/s, rad/s] on the emulated run
 BOX0 = (np.array([-0.5, -0.1]), np.array([0.5, 0.1]))
@@ -584,7 +584,6 @@ def box_explorer(log: DriveLog, bands: iv.SpeedBands, rel_unc0: float = 0.10, se
 
     import ipywidgets as w
     from IPython.display import display
-
     from vehicle_observers.core.errors import InfeasibleDesign
     from vehicle_observers.results.tables import show_table
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from vehicle_observers.core.errors import PremiseOutOfBounds
 from vehicle_observers.core.metrics import correlation, fit_percent, rmse
 from vehicle_observers.core.signals import chirp, speed_ramp, time_grid

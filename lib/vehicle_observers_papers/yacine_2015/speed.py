@@ -2,7 +2,7 @@
 Levant differentiator and of the TS observer (31) must each take at most 2 s; plus the
 Theorem 1 LMI design and the truth simulation of the emulated lap.
 
-    python -m vehicle_observers.bench.yacine [--quick]
+    python -m vehicle_observers_papers.yacine_2015.speed [--quick]
 
 Inputs are the emulated Satory lap (about 230 s) tiled to 350 s; timings are the best of
 three runs after a warm-up call (numba compilation / cache load excluded).
@@ -14,13 +14,13 @@ import sys
 import time
 
 import numpy as np
-
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.data import scenarios
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.observers.differentiators import levant_differentiator
-from vehicle_observers.papers import yacine2015
+
+from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
 
 def _best(fn, repeat=3):

@@ -12,7 +12,6 @@ forces (D) are printed by ``tests/test_papers.py``.
 """
 
 import numpy as np
-
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.tires import Pacejka
 

@@ -23,9 +23,9 @@ diagonal shift ``epsilon_shift`` = 1000 1/s (bounds the gains), membership-rate 
 """
 
 import numpy as np
-
 from vehicle_observers.observers.interval import SpeedBands, UncertainBicycle
-from vehicle_observers.papers import yacine2015
+
+from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
 m = yacine2015.m          # kg
 I_z = yacine2015.I_z      # kg m^2
@@ -113,7 +113,7 @@ revs_steer_noise = 0.01
 
 
 def revs_vehicle(rel_unc: float = revs_rel_unc) -> UncertainBicycle:
-    from vehicle_observers.papers import revs250lm as rv
+    from vehicle_observers_papers.leanza_2021 import constants as rv
 
     return UncertainBicycle(m=rv.m, I_z=rv.I_z, l_f=rv.l_f, l_r=rv.l_r, c_f0=rv.C_f,
                             c_r0=rv.C_r, rel_unc=rel_unc,

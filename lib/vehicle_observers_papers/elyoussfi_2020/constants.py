@@ -29,9 +29,9 @@ reproduction): ``C = I_2`` (v_y also measured), fault on the gyro, ``M = [1, 0]^
 
 import numpy as np
 
-from vehicle_observers.papers.yacine2015 import I_z, m, tire_f, tire_r
-from vehicle_observers.papers.yacine2015 import a_f as l_f
-from vehicle_observers.papers.yacine2015 import a_r as l_r
+from vehicle_observers_papers.yacine_2015.constants import I_z, m, tire_f, tire_r
+from vehicle_observers_papers.yacine_2015.constants import a_f as l_f
+from vehicle_observers_papers.yacine_2015.constants import a_r as l_r
 
 __all__ = ["m", "I_z", "l_f", "l_r", "tire_f", "tire_r"]
 

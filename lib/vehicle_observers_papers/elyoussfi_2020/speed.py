@@ -7,11 +7,11 @@ The designs are solved once (not timed); the numba kernels are compiled by a war
 from __future__ import annotations
 
 import numpy as np
-
 from vehicle_observers.baselines import uio_ekf as uio_baseline
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.observers import uio
-from vehicle_observers.papers import elyoussfi2020 as P
+
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
 
 
 def _best_of(fn, repeat=3):

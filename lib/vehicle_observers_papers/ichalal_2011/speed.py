@@ -1,7 +1,7 @@
 """Speed of the DMVT observer (Ichalal 2011): numba co-simulation of bicycle + observer (6)
 and the LMI designs (23) / (23)+(35)+(36).
 
-    python -m vehicle_observers.bench.dmvt [--quick]
+    python -m vehicle_observers_papers.ichalal_2011.speed [--quick]
 """
 
 from __future__ import annotations
@@ -10,14 +10,14 @@ import sys
 import time
 
 import numpy as np
-
 from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.baselines.filterpy_generic import run_ekf
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.design.lmi import disk, halfplane
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
+
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 
 def _setup(T: float):

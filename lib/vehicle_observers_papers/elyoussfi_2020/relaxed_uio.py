@@ -5,7 +5,7 @@ builds one figure and returns the matplotlib Figure, so the notebook stays a few
 cell. Equations and reconstruction choices: :mod:`vehicle_observers.observers.uio` (model (1)-(15),
 UIO (20)-(24), designs (a) [22] and (b) Theorem 2), :mod:`vehicle_observers.baselines.uio_ekf`
 (EKF/UKF with the fault as a random-walk state) and
-:mod:`vehicle_observers.papers.elyoussfi2020` (constants).
+:mod:`vehicle_observers_papers.elyoussfi_2020.constants` (constants).
 
 Metrics are returned as ``{name: (value, unit, note)}`` in the order the notebook reports
 them; :func:`record` writes such a dict into a
@@ -19,15 +19,15 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-
 from vehicle_observers.baselines import uio_ekf as ub
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.observers import uio
-from vehicle_observers.papers import elyoussfi2020 as P
 from vehicle_observers.results.plotting import time_series
 from vehicle_observers.results.rules import Rule, fmt
 from vehicle_observers.results.tables import Table, show_table
+
+from vehicle_observers_papers.elyoussfi_2020 import constants as P
 
 PAPER = "El Youssfi 2020 (relaxed UIO)"
 #: state names / units of the augmented state X = [v_y, r, f]

@@ -12,7 +12,6 @@ from itertools import product
 
 import matplotlib.pyplot as plt
 import numpy as np
-
 from vehicle_observers.core.arrays import decimate
 from vehicle_observers.core.errors import InfeasibleDesign
 from vehicle_observers.core.metrics import max_abs, rmse
@@ -21,8 +20,9 @@ from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.observers.differentiators import levant_differentiator
-from vehicle_observers.papers import yacine2015
 from vehicle_observers.results.rules import round_sig
+
+from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
 #: samples before this time [s] are excluded from "after convergence" metrics
 T_SETTLE = 5.0

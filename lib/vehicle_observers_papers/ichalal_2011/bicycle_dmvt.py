@@ -16,15 +16,15 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-
 from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.design.lmi import disk, halfplane
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
-from vehicle_observers.papers import ichalal2011 as ic
 from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
+
+from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 PAPER = "Ichalal 2011"
 #: colours (tableau-colorblind10): no region, region, EKF, UKF

@@ -1,6 +1,6 @@
 """Speed of the Rabhi 2004 sliding-mode observers and their truth models (60 s runs).
 
-``python -m vehicle_observers.bench.sliding_mode`` prints the rows. ``run(quick)``
+``python -m vehicle_observers_papers.rabhi_2004.speed`` prints the rows. ``run(quick)``
 returns rows ``{"component", "steps", "seconds", "us_per_step", "dt"}``; the first call of
 each kernel is excluded (numba compilation/caching).
 """
@@ -8,13 +8,13 @@ each kernel is excluded (numba compilation/caching).
 from __future__ import annotations
 
 import numpy as np
-
 from vehicle_observers.baselines import sliding_mode_ekf as planar_baseline
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.data import road
 from vehicle_observers.models import fullcar, planar
 from vehicle_observers.observers import sliding_mode as smo
-from vehicle_observers.papers import rabhi2004 as R
+
+from vehicle_observers_papers.rabhi_2004 import constants as R
 
 
 def _time(fn, repeat=3):

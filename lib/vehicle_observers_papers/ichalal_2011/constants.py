@@ -10,7 +10,6 @@ would be v and disagrees with v = 10: both are reported side by side in notebook
 """
 
 import numpy as np
-
 from vehicle_observers.models.bicycle import BicycleParams
 
 params = BicycleParams(p=0.6, c=0.5, v=10.0, g=9.81, k1=10.0, k2=10.0)

@@ -10,11 +10,11 @@ no state-dependent cost). ``run(quick=False) -> list[dict]`` rows ``{"component"
 from __future__ import annotations
 
 import numpy as np
-
 from vehicle_observers.baselines import kalman as K
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.data.logs import DriveLog, despike, load_revs
-from vehicle_observers.papers import revs250lm as R
+
+from vehicle_observers_papers.leanza_2021 import constants as R
 
 TUNING = K.KalmanTuning(q_vy=0.27, q_r=2e-3, q_b=0.4, R_r=1.6e-5, R_ay=1.3,
                         source="fixed for the speed benchmark")

@@ -56,7 +56,6 @@ contact_length = 0.1   # m, tyre-enveloping window on the Belgian block
 # ----------------------------------------------------------------- scenario runners -----
 # (used by notebook 05 and its tests; each returns truth, estimates and metrics)
 import numpy as np  # noqa: E402
-
 from vehicle_observers.core.metrics import rmse as _rmse  # noqa: E402
 from vehicle_observers.data import road as _road  # noqa: E402
 from vehicle_observers.models import fullcar as _fc  # noqa: E402

@@ -1,1 +1,0 @@
-"""The reproductions (not library code): each paper's printed constants and each notebook's experiments."""
