@@ -15,6 +15,38 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
+
+
+# ------------------------------------------------------------------ the one tyre formula --
+@njit(cache=True)
+def magic_formula(alpha, B, C, D, E):
+    """Pacejka magic formula ``D sin(C atan(B(1-E) alpha + E atan(B alpha)))`` [N] at slip
+    ``alpha`` [rad] (Yacine 2015 eq. (7); Pacejka 2005 eq. (4.49)); ``C == 0`` encodes a
+    linear tyre of slope ``B`` [N/rad]. Scalar in, scalar out; compiled, so every kernel of
+    the library calls this one definition (:meth:`Pacejka.force` is its numpy twin)."""
+    if C == 0.0:  # linear tyre, slope B
+        return B * alpha
+    Ba = B * alpha
+    if E == 0.0:  # the same number without the curvature term's arctan
+        return D * np.sin(C * np.arctan(Ba))
+    return D * np.sin(C * np.arctan(B * (1.0 - E) * alpha + E * np.arctan(Ba)))
+
+
+@njit(cache=True)
+def magic_formula_slope(alpha, B, C, D, E):
+    """``(F, dF/dalpha)`` [N], [N/rad] of :func:`magic_formula` (for Jacobians)."""
+    if C == 0.0:
+        return B * alpha, B
+    Ba = B * alpha
+    if E == 0.0:
+        phi = Ba
+        dphi = B
+    else:
+        phi = B * (1.0 - E) * alpha + E * np.arctan(Ba)
+        dphi = B * (1.0 - E) + E * B / (1.0 + Ba * Ba)
+    ang = C * np.arctan(phi)
+    return D * np.sin(ang), D * np.cos(ang) * C / (1.0 + phi * phi) * dphi
 
 
 def _sinc(x):
