@@ -2,6 +2,7 @@
 
     python -m vehicle_observers.results.check              # regenerate into build/check, compare
     python -m vehicle_observers.results.check --compare A  # compare figures/ with a folder A only
+    python -m vehicle_observers.results.check --only 03,05 # regenerate and compare two notebooks
 
 (``make check``.) Every notebook is run in full mode into ``build/check/figures``; then every
 committed metric in ``figures/<notebook>/metrics.json`` is compared with the regenerated one
@@ -111,10 +112,13 @@ def compare_doc(old: dict, new: dict) -> list[Drift]:
     return out
 
 
-def compare_dirs(committed: Path, regenerated: Path) -> list[Drift]:
-    """Drifts of every ``<notebook>/metrics.json`` of ``committed`` against ``regenerated``."""
+def compare_dirs(committed: Path, regenerated: Path, only=()) -> list[Drift]:
+    """Drifts of every ``<notebook>/metrics.json`` of ``committed`` against ``regenerated``
+    (only the notebooks whose name starts with one of ``only``, when given)."""
     out = []
     for mj in sorted(committed.glob("*/metrics.json")):
+        if only and not mj.parent.name.startswith(tuple(only)):
+            continue
         if not (mj.parent / "metrics.json").exists():
             continue
         other = regenerated / mj.parent.name / "metrics.json"
@@ -148,7 +152,9 @@ def main(argv=None) -> int:
     ap.add_argument("--committed", default=None, help="committed folder (default: figures/)")
     ap.add_argument("--build", default="build/check")
     ap.add_argument("--timeout", type=int, default=1200)
+    ap.add_argument("--only", default="", help="comma-separated notebook prefixes, e.g. 01,03")
     args = ap.parse_args(argv)
+    only = tuple(x for x in args.only.split(",") if x)
     root = repo_root()
     committed = Path(args.committed) if args.committed else root / "figures"
     if args.compare:
@@ -159,10 +165,11 @@ def main(argv=None) -> int:
         build = root / args.build
         regenerated = build / "figures"
         rc = pipeline.main(["--figures", str(regenerated), "--build", str(build / "notebooks"),
-                            "--timeout", str(args.timeout)])
+                            "--timeout", str(args.timeout)]
+                           + (["--only", args.only] if only else []))
         if rc != 0:
             return rc
-    drifts = compare_dirs(committed, regenerated)
+    drifts = compare_dirs(committed, regenerated, only)
     print(drift_table(drifts))
     bad = [d for d in drifts if not d.ok]
     print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts")
