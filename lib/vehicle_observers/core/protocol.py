@@ -180,13 +180,10 @@ class Trajectory:
 
 
 def _is_bound(name: str, columns: dict) -> bool:
-    base, unit = split_unit(name)
-    for side in ("lo", "hi"):
-        if base.endswith("_" + side):
-            est = f"{base[: -len(side) - 1]}_{unit}" if unit else base[: -len(side) - 1]
-            if est in columns:
-                return True
-    return False
+    """``<quantity>_lo_<unit>`` / ``<quantity>_hi_<unit>`` (whether or not the estimate
+    column exists: :meth:`Trajectory.from_columns` refuses an orphan bound)."""
+    base, _ = split_unit(name)
+    return base.endswith(("_lo", "_hi"))
 
 
 @runtime_checkable
