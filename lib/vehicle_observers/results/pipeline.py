@@ -10,7 +10,8 @@ run stops with the notebook name, the cell number and the error, and keeps the p
 executed copy. After a full run, ``REPRODUCTION.md`` is rebuilt from the claims every
 notebook wrote into ``figures/<notebook>/metrics.json``. With ``--html DIR`` the executed
 copies of the same run are also rendered to ``DIR/<notebook>.html`` (nbconvert, JupyterLab look,
-figures embedded) for reading without a kernel (``make html``).
+figures embedded, MathJax copied beside the pages: no network needed) for reading without a
+kernel (``make html``).
 """
 
 from __future__ import annotations
@@ -58,24 +59,10 @@ def run_notebook(nb: Path, out: Path, figures_dir: Path, seed: int = 0, quick: b
 
 
 def write_html(executed: list[Path], out_dir: Path) -> list[Path]:
-    """Render executed notebooks to standalone HTML (``out_dir/<notebook>.html``) with
-    nbconvert's ``lab`` template; image outputs are embedded, the input cells kept.
-    Raises ``FileNotFoundError`` naming a missing executed copy."""
-    import nbformat
-    from nbconvert import HTMLExporter
+    """Render executed notebooks to standalone offline HTML (:func:`results.html.write_html`)."""
+    from vehicle_observers.results.html import write_html as offline
 
-    exporter = HTMLExporter(template_name="lab", embed_images=True)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    for nb in executed:
-        if not nb.exists():
-            raise FileNotFoundError(f"executed notebook {nb} not found (run the pipeline first)")
-        body, _ = exporter.from_notebook_node(nbformat.read(str(nb), as_version=4),
-                                              resources={"metadata": {"name": nb.stem}})
-        path = out_dir / f"{nb.stem}.html"
-        path.write_text(body, encoding="utf-8")
-        written.append(path)
-    return written
+    return offline(executed, out_dir)
 
 
 def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -> Path:
