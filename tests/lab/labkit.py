@@ -256,6 +256,22 @@ def chromium_path() -> str | None:
     return None
 
 
+def require_browser(what: str) -> None:
+    """Skip the calling test module (one line saying how to enable it) without the system
+    Chromium or Playwright; ``VO_REQUIRE_BROWSER=1`` (set by ``.ci/run``) turns the skip into
+    a failure. Call at module level."""
+    import pytest
+
+    how = (f"{what} skipped: no system Chromium (install it: apt-get install -y chromium; "
+           "or set VO_CHROMIUM=/path/to/chromium)")
+    if chromium_path() is None:
+        if os.environ.get("VO_REQUIRE_BROWSER"):
+            raise RuntimeError(how.replace("skipped", "required (VO_REQUIRE_BROWSER=1)"))
+        pytest.skip(how, allow_module_level=True)
+    pytest.importorskip("playwright", reason=f"{what} skipped: playwright is not installed "
+                        "(make env installs it from environment.txt)")
+
+
 def start_chromium(exe: str, work: Path, timeout: float = 60.0):
     """Headless Chromium with a new empty profile in ``work/profile`` and a DevTools port it picks
     itself; returns ``(process, cdp_url)``. Ended with :func:`stop`."""

@@ -16,21 +16,21 @@ protocol; without it the module is skipped with one line saying how to enable it
 
 from __future__ import annotations
 
-import os
-
 import nbformat
 import pytest
-from labkit import KERNEL, ROOT, chromium_path, run_in_lab, start_chromium, stop, teaching_problems
+from labkit import (
+    KERNEL,
+    ROOT,
+    chromium_path,
+    require_browser,
+    run_in_lab,
+    start_chromium,
+    stop,
+    teaching_problems,
+)
 from nbformat.v4 import new_code_cell, new_notebook
 
-HOW = ("JupyterLab browser test skipped: no system Chromium (install it: apt-get install -y chromium; "
-       "or set VO_CHROMIUM=/path/to/chromium)")
-if chromium_path() is None:
-    if os.environ.get("VO_REQUIRE_BROWSER"):
-        raise RuntimeError(HOW.replace("skipped", "required (VO_REQUIRE_BROWSER=1)"))
-    pytest.skip(HOW, allow_module_level=True)
-pytest.importorskip("playwright", reason="JupyterLab browser test skipped: playwright is not "
-                    "installed (make env installs it from environment.txt)")
+require_browser("JupyterLab browser test")
 
 from vehicle_observers.results import pipeline  # noqa: E402
 

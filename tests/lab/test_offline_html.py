@@ -10,21 +10,14 @@ the planted CDN page below must fail the same count.
 
 from __future__ import annotations
 
-import os
 import re
 
 import nbformat
 import pytest
-from labkit import ROOT, chromium_path, start_chromium, stop
+from labkit import ROOT, chromium_path, require_browser, start_chromium, stop
 from vehicle_observers.results import html
 
-HOW = ("offline HTML test skipped: no system Chromium (apt-get install -y chromium, or set "
-       "VO_CHROMIUM=/path/to/chromium)")
-if chromium_path() is None:
-    if os.environ.get("VO_REQUIRE_BROWSER"):
-        raise RuntimeError(HOW.replace("skipped", "required (VO_REQUIRE_BROWSER=1)"))
-    pytest.skip(HOW, allow_module_level=True)
-pytest.importorskip("playwright")
+require_browser("offline HTML test")
 
 pytestmark = [pytest.mark.xdist_group("offline_html")]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
