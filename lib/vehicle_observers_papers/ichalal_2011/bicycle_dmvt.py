@@ -436,7 +436,7 @@ def region_sweep_study(vertices, C, a_grid, R_grid, tol_R: float = 0.1,
 
 def printed_vertices_check(C, a: float, R: float) -> dict:
     """Side check: LMIs (23) (r = 1) on the printed vertices (34) of
-    :func:`papers.ichalal2011.printed_jacobian_vertices`, without and with the region.
+    :func:`.constants.printed_jacobian_vertices`, without and with the region.
 
     Returns ``designs`` ``{"printed_noreg", "printed_reg"}`` and ``metrics`` (max |Im|
     [1/s], min damping, min relative LMI margin)."""

@@ -204,7 +204,7 @@ def flipped_adaptation(man, Xs, mode: str = "sat") -> dict:
 
 def mu_step_study(T: float, mu_after: float = 0.5, modes=("sign", "sat"), adapt=ADAPT) -> tuple:
     """Road-friction step ``mu 1 -> mu_after`` at ``T/2`` in the truth
-    (:func:`.papers.rabhi2004.part_a_truth_mu_step`), the observer model unchanged (nominal
+    (:func:`.constants.part_a_truth_mu_step`), the observer model unchanged (nominal
     slip stiffnesses of ``mu = 1``): ``(man, Xs, runs)`` with ``runs`` as
     :func:`adaptation_study`."""
     man, Xs = R.part_a_truth_mu_step(T, mu_after)
