@@ -9,6 +9,8 @@ where the estimators lose on the real log. The protocol: :mod:`vehicle_observers
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from vehicle_observers import estimation as EST
 from vehicle_observers.core.metrics import rmse
@@ -117,7 +119,7 @@ def run(seed: int = 0, quick: bool = False, filterpy_steps: int | None = None,
                 errors.append(f"{dname}/{oname}: {type(exc).__name__}: {exc}")
                 continue
             if est.estimator.startswith(("ekf", "ukf", "rts")):
-                est.design_seconds = tsec
+                est = replace(est, design_seconds=tsec)      # the ML tuning is their design
             ests[(dname, oname)] = est
             m = EST.score(est, lg, mk)
             row = {"dataset": dname, "observer": oname, "causal": est.causal,
