@@ -51,7 +51,7 @@ def test_notebook_stored_without_outputs_and_has_parameters(nb):
 
 
 #: longest code cell a notebook may have: cells call the library (experiments, figures and
-#: metric tables live in ``vehicle_observers/*_study.py``); a claim with its prose is the longest
+#: metric tables live in ``vehicle_observers_papers``); a claim with its prose is the longest
 MAX_CODE_CELL_LINES = 20
 
 

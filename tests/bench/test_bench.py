@@ -1,17 +1,17 @@
 """Benchmark plumbing: rows, ratios, files (fast observers only; the Kalman rows are covered by
-tests/test_notebook_07.py)."""
+tests/notebooks/test_notebook_07.py)."""
 
 import json
 
 import numpy as np
 import pytest
 from vehicle_observers.estimation import score
-from vehicle_observers_papers.benchmark_study import suite as B
+from vehicle_observers_papers.benchmark_study import runs, writers
 
 
 @pytest.fixture(scope="module")
 def res():
-    return B.run(quick=True, observers=["interval-ifqir2017", "ts-yacine2015"])
+    return runs.run(quick=True, observers=["interval-ifqir2017", "ts-yacine2015"])
 
 
 def test_rows_cover_applicable_observers(res):
@@ -29,7 +29,7 @@ def test_rows_cover_applicable_observers(res):
 
 
 def test_outputs_and_metrics_file_list(res, tmp_path):
-    paths = B.write_outputs(res, tmp_path, topics=[{"topic": "x", "component": "y", "steps": 1,
+    paths = writers.write_outputs(res, tmp_path, topics=[{"topic": "x", "component": "y", "steps": 1,
                                                      "seconds": 1.0, "us_per_step": 1e6}])
     names = {p.name for p in paths}
     assert {"benchmark.csv", "benchmark.md", "metrics.json", "rmse_cost.png",
@@ -40,8 +40,8 @@ def test_outputs_and_metrics_file_list(res, tmp_path):
     md = (tmp_path / "benchmark.md").read_text()
     assert "| revs | interval-ifqir2017 |" in md
     # losses table: shares of each factor's bins sum to 1
-    loss = B.revs_losses(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
-                                               if d == "revs"})
+    loss = runs.revs_losses(res["logs"]["revs"], {o: e for (d, o), e in res["estimates"].items()
+                                                  if d == "revs"})
     for f in {r["factor"] for r in loss}:
         assert sum(r["share"] for r in loss if r["factor"] == f) == pytest.approx(1.0, abs=1e-3)
     assert np.isfinite([r["interval-ifqir2017"] for r in loss]).all()

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.lateral import simulate_s1
-from vehicle_observers_papers.benchmark_study import suite as suite
+from vehicle_observers_papers.benchmark_study import figures, plant_study
 
 
 def _linear_log(scale_f=1.0, scale_r=1.0):
-    veh = suite.plant_vehicle()
+    veh = plant_study.plant_vehicle()
     p = veh.params
     t = np.arange(0, 10, 0.01)
     d = 0.03 * np.sin(2 * np.pi * 0.5 * t)
@@ -29,7 +29,7 @@ def _linear_log(scale_f=1.0, scale_r=1.0):
 
 def test_stiffness_box_known_answer():
     log, p = _linear_log(0.8, 1.15)
-    box = suite.plant_stiffness_box(log, p)
+    box = plant_study.plant_stiffness_box(log, p)
     assert box["cf_ratio_min"] == pytest.approx(0.8, rel=1e-9)
     assert box["cf_ratio_max"] == pytest.approx(0.8, rel=1e-9)
     assert box["cr_ratio_min"] == pytest.approx(1.15, rel=1e-9)
@@ -37,7 +37,7 @@ def test_stiffness_box_known_answer():
 
 def test_open_loop_linear_is_exact_on_its_own_model():
     log, p = _linear_log()
-    assert np.abs(suite.open_loop_linear(log, p) - log.vy).max() < 1e-9
+    assert np.abs(plant_study.open_loop_linear(log, p) - log.vy).max() < 1e-9
 
 
 def test_targets_are_computed_from_rows():
@@ -47,7 +47,7 @@ def test_targets_are_computed_from_rows():
             {"dataset": "d", "observer": "rts", "rmse_vy": 0.09},
             {"dataset": "d", "observer": "interval-coordinates", "rmse_vy": 0.2,
              "enclosure_vy": 0.97, "width_vy": 0.3}]
-    t = {x["target"]: x for x in suite.plant_targets(rows)}
+    t = {x["target"]: x for x in plant_study.plant_targets(rows)}
     best = t["best observer <= 0.8 x open loop"]
     assert best["value"] == pytest.approx(0.7) and best["met"] and "ekf" in best["detail"]
     assert t["RTS <= EKF"]["value"] == pytest.approx(0.09 / 0.07) and not t["RTS <= EKF"]["met"]
@@ -63,7 +63,7 @@ def test_fig_plant_draws_one_bar_per_row():
             {"dataset": "plant_a", "observer": "ekf", "rmse_vy": 0.05},
             {"dataset": "plant_b", "observer": "open-loop-linear", "rmse_vy": 0.2},
             {"dataset": "plant_b", "observer": "ekf", "rmse_vy": 0.3}]
-    fig = suite.fig_plant(rows)
+    fig = figures.fig_plant(rows)
     heights = sorted(p.get_height() for p in fig.axes[0].patches)
     assert heights == pytest.approx([0.05, 0.1, 0.2, 0.3])
 
@@ -71,19 +71,19 @@ def test_fig_plant_draws_one_bar_per_row():
 def test_rts_target_explanation_is_computed():
     diag = {"matched_rts_over_ekf": 0.88, "innov_p_r": 1e-9, "innov_p_ay": 0.3, "q_b": 0.5,
             "dvy_db_r2": 0.6, "smoother_correct": True, "model_mismatch": True}
-    t = suite.rts_target("d", 0.12, 0.10, diag)
+    t = plant_study.rts_target("d", 0.12, 0.10, diag)
     assert not t["met"] and t["explained"] and "0.880" in t["detail"]
-    assert not suite.rts_target("d", 0.12, 0.10, {**diag, "smoother_correct": False})["explained"]
-    assert not suite.rts_target("d", 0.12, 0.10, {**diag, "model_mismatch": False})["explained"]
-    met = suite.rts_target("d", 0.09, 0.10, diag)
+    assert not plant_study.rts_target("d", 0.12, 0.10, {**diag, "smoother_correct": False})["explained"]
+    assert not plant_study.rts_target("d", 0.12, 0.10, {**diag, "model_mismatch": False})["explained"]
+    met = plant_study.rts_target("d", 0.09, 0.10, diag)
     assert met["met"] and not met["explained"]
-    assert "explained" not in suite.rts_target("d", 0.12, 0.10)
+    assert "explained" not in plant_study.rts_target("d", 0.12, 0.10)
 
 
 def test_diagnosis_metrics_names_and_missing_ay():
     diag = {"matched_rts_over_ekf": 0.88, "innov_p_r": 1e-9, "innov_p_ay": 0.3}
-    m = suite.diagnosis_metrics("plant_x", diag)
+    m = plant_study.diagnosis_metrics("plant_x", diag)
     assert m == {"plant_x_rts_matched_ratio": 0.88, "plant_x_innov_p_r": 1e-9,
                  "plant_x_innov_p_ay": 0.3}
-    m = suite.diagnosis_metrics("revs", {**diag, "innov_p_ay": float("nan")})
+    m = plant_study.diagnosis_metrics("revs", {**diag, "innov_p_ay": float("nan")})
     assert set(m) == {"revs_rts_matched_ratio", "revs_innov_p_r"}     # no a_y channel

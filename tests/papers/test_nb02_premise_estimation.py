@@ -1,4 +1,4 @@
-"""Helpers of notebook 02 (papers/nb02_premise_estimation.py) not covered by the notebook test."""
+"""Helpers of notebook 02 (yacine_2015/premise_estimation.py) not covered by the notebook test."""
 
 import numpy as np
 import pytest

@@ -211,7 +211,7 @@ def _claims(tmp_path, **over):
     rep = Report("nb", tmp_path)
     for k, v in {**BASE_METRICS, **over}.items():
         rep.metric(k, v)
-    ds.record_claims(rep, ds.paper_claims(rep.values(), A_REG, R_REG, VAR))
+    rep.record(claims=ds.paper_claims(rep.values(), A_REG, R_REG, VAR))
     return {c.item: c for c in rep.claims}, rep
 
 
@@ -260,15 +260,6 @@ def test_paper_claims_verdicts_follow_the_numbers(tmp_path):
     c, _ = _claims(tmp_path, mc_median_overshoot_reg=[0.1] * 4, mc_median_settling_reg=[0.1] * 4)
     assert c["Fig. 5 / (35)-(36)"].verdict == "reproduced"
     assert "larger" not in c["Fig. 5 / (35)-(36)"].note
-
-
-def test_record_and_timings(tmp_path):
-    rep = Report("nb", tmp_path)
-    ds.record(rep, {"a": (1.5, "s", "note a"), "b": (np.arange(2), "")})
-    ds.record_timings(rep, {"us": (3.0, "us")})
-    assert rep.metrics == {"a": {"value": 1.5, "unit": "s", "note": "note a", "digits": 4},
-                           "b": {"value": [0, 1], "unit": "", "note": "", "digits": 4}}
-    assert rep.timings == {"us": {"value": 3.0, "unit": "us", "note": ""}}
 
 
 def test_bounds_variants_against_direct_computation(setup):

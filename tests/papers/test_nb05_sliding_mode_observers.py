@@ -1,7 +1,7 @@
 """rabhi_study (notebook 05 experiments and figures) on short horizons: 3 s manoeuvre, 1.5 s
 roads. Each experiment is checked against an independent computation or a known answer;
 each figure function for its number of axes. The full-length numbers are checked by
-tests/test_notebook_05.py."""
+tests/notebooks/test_notebook_05.py."""
 
 import matplotlib.pyplot as plt  # the Agg backend is set by conftest.py
 import numpy as np

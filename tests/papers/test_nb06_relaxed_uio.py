@@ -234,7 +234,7 @@ def _claim_values(**over):
 def _verdicts(tmp_path, **over):
     g = _claim_values(**over)
     rep = Report("06_test", tmp_path)
-    us.record(rep, {k: (x, "", "") for k, x in g.items()}, claims=us.claims(g))
+    rep.record(metrics={k: (x, "", "") for k, x in g.items()}, claims=us.claims(g))
     return {c.figure + ":" + c.item: c.verdict for c in rep.claims}, rep
 
 

@@ -225,10 +225,10 @@ def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: i
 def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int = 0,
                    decimate: int = 1, t_skip: float = 1.0, x2_err0=None, x3_err0=None,
                    filter: str = "ekf", **kw) -> dict:
-    """EKF counterpart of ``papers.rabhi2004.part_a_run``: same truth ``Xs`` (N, 12), same
+    """EKF counterpart of ``rabhi_2004.constants.part_a_run``: same truth ``Xs`` (N, 12), same
     measurements (:func:`.observers.sliding_mode.measurements_from_truth` with ``noise``, ``seed``), same
     observer-model ``errors``, same initial velocity/wheel-speed errors (default
-    ``papers.rabhi2004.x2_err0, x3_err0``), zero initial forces, same metrics after ``t_skip``
+    ``rabhi_2004.constants.x2_err0, x3_err0``), zero initial forces, same metrics after ``t_skip``
     (:func:`.observers.sliding_mode.force_errors`; with ``decimate > 1`` against the block means of the true
     forces, i.e. the truth at the block centres to O(dt^2)). ``p`` the truth
     :class:`.models.planar.PlanarParams`, ``sensor_std`` (5,) for ``R``. Returns a dict with ``res``
@@ -238,7 +238,7 @@ def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int
 
     if x2_err0 is None or x3_err0 is None:
         raise ValueError("part_a_ekf_run: give the initial errors x2_err0 (3,) and x3_err0 (2,) "
-                         "(the paper's: papers.rabhi2004.x2_err0, x3_err0)")
+                         "(the paper's: rabhi_2004.constants.x2_err0, x3_err0)")
     model = ForceObserverModel.from_params(p, **(errors or {}))
     Y = measurements_from_truth(Xs, noise, seed)
     x0 = np.concatenate([Xs[0, 3:6] + np.asarray(x2_err0), Xs[0, 6:8] + np.asarray(x3_err0),

@@ -1,1 +1,1 @@
-"""Speed of the command line end to end (the accuracy and per-paper benchmark: vehicle_observers_papers)."""
+"""Speed of every registered estimator and of the command line (accuracy: vehicle_observers_papers)."""

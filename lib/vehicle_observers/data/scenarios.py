@@ -18,7 +18,7 @@ Speed profile
     profile), starting and ending at 0.2 m/s (the paper's ``v_x^min``), with one 8 m/s
     slow section (:data:`SLOW_ZONES`) so intermediate speeds are visited too. With
     ``a_y,max = 4.8 m/s^2`` the front slip reaches about 6-7 deg in the hairpins, where the
-    secant stiffness of the chosen Pacejka tyres (``papers/yacine2015.py``) has fallen by
+    secant stiffness of the chosen Pacejka tyres (``yacine_2015.constants``) has fallen by
     15-20 % -- the nonlinear tyre region -- while staying inside the |alpha| <= 8 deg on
     which the TS sector bounds hold. ``s(t)`` is obtained from ``t(s) = int ds / v(s)``.
 
@@ -100,7 +100,7 @@ NOISE_STD = {"yaw_rate": 0.002, "delta": 2e-4, "vx": 0.02, "ay": 0.05, "yL": 0.0
 
 def _default_params() -> LateralParams:
     """The paper's car: the shipped vehicle file ``yacine2015`` (equal to
-    ``papers.yacine2015.params``; a test checks it)."""
+    ``vehicle_observers_papers.yacine_2015.constants.params``; a test checks it)."""
     return load_vehicle("yacine2015").params
 
 
@@ -428,7 +428,7 @@ def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0
     noise_scale : multiplies every sensor noise std (:data:`NOISE_STD`); 0 = noise-free.
     vision_rate_hz : ``None`` -> vision at 1 kHz; else ``y_L, psi_L`` frames at this rate,
         held between frames (e.g. 25 Hz for a camera).
-    params : vehicle (default: ``papers.yacine2015.params``, the paper's car with the chosen
+    params : vehicle (default: ``yacine_2015.constants.params``, the paper's car with the chosen
         Pacejka tyres).
     substeps : RK4 steps per 1 ms sample.
     v_max : top speed of the speed profile [m/s] (default the paper's ``v_x^max`` = 17; a

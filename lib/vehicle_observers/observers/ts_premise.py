@@ -84,7 +84,7 @@ VX_FLOOR = 0.5
 
 def _params(params):
     """``params`` or, by default, the paper's car: the shipped vehicle file ``yacine2015``
-    (equal to ``papers.yacine2015.params``; a test checks it)."""
+    (equal to ``vehicle_observers_papers.yacine_2015.constants.params``; a test checks it)."""
     if params is not None:
         return params
     return load_vehicle("yacine2015").params
@@ -231,7 +231,7 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
                     scale=STATE_SCALE, disk_radius: float | None = 600.0,
                     p_max: float | None = 1e3, eps: float = 1e-2) -> ObserverDesign:
     """Solve Theorem 1 (33) for the 8-rule TS model (24) ``ts`` (the paper's bounds:
-    ``papers.yacine2015.ts_model()``).
+    ``vehicle_observers_papers.yacine_2015.constants.ts_model()``).
 
     Constraints solved, in scaled coordinates (module docstring): (33) for the 8 vertices,
     ``P~ >= I`` (normalisation of the homogeneous (33); feasibility unchanged) and, **added

@@ -1,11 +1,72 @@
-"""Plot helpers shared by the notebooks (figures are saved through reporting.Report)."""
+"""Plot helpers of the notebooks and the benchmark, with the one colour palette of the project.
+
+Every figure uses the colour-blind-safe Tableau colour-blind 10 palette (matplotlib style
+``tableau-colorblind10``, :data:`PALETTE`); :func:`apply_style` (run on import, so by every
+notebook through :mod:`vehicle_observers.results.reporting`) makes it the colour cycle, with a
+light grid and small fonts. An estimator or observer has the same colour in every figure:
+:data:`COLORS` is its one definition (:func:`color` looks a name up, with a cycling fallback
+for names it does not list); the truth or reference is black (:data:`TRUTH`).
+
+Figures are saved through :meth:`vehicle_observers.results.reporting.Report.savefig`.
+"""
 
 from __future__ import annotations
 
+import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
 from vehicle_observers.core.arrays import decimate
+
+#: the matplotlib style of the palette
+STYLE = "tableau-colorblind10"
+#: Tableau colour-blind 10: blue, orange, light grey, dark grey, light blue, dark orange,
+#: mid grey, pale blue, pale orange, pale grey
+PALETTE: tuple[str, ...] = tuple(plt.style.library[STYLE]["axes.prop_cycle"].by_key()["color"])
+#: colour of the truth / reference in every figure
+TRUTH = "k"
+
+#: one colour per estimator or observer (the registry names of
+#: :func:`vehicle_observers.estimation.available` for the benchmark; ``<paper>/<role>`` for
+#: the variants a reproduction compares)
+COLORS: dict[str, str] = {
+    # registered estimators (benchmark, notebook 07)
+    "ekf": PALETTE[1], "ekf-filterpy": PALETTE[0], "ukf": PALETTE[2], "rts": PALETTE[3],
+    "ts-yacine2015": PALETTE[4], "interval-ifqir2017": PALETTE[5],
+    # Ichalal 2011 (notebook 04): DMVT observer without / with the pole region (35)-(36),
+    # filterpy EKF and UKF on the bicycle model (25)
+    "ichalal2011/noreg": PALETTE[5], "ichalal2011/reg": PALETTE[0], "ichalal2011/ekf": TRUTH,
+    "ichalal2011/ukf": PALETTE[6],
+    # El Youssfi 2020 (notebook 06): UIO designs (b) Theorem 2 and (a) [22]; EKFs with the
+    # fault as a random-walk state
+    "elyoussfi2020/theorem2": PALETTE[3], "elyoussfi2020/ref22": PALETTE[0],
+    "elyoussfi2020/ekf": PALETTE[2], "elyoussfi2020/ekf-tau": PALETTE[1],
+}
+#: first palette entry of the fallback colours of :func:`color`
+FALLBACK = 6
+
+
+def color(name: str, j: int = 0) -> str:
+    """Colour of estimator ``name`` (:data:`COLORS`); a name it does not list gets
+    ``PALETTE[6 + j % 4]`` (``j``: its position in the figure)."""
+    c = COLORS.get(name)
+    return c if c is not None else PALETTE[FALLBACK + j % (len(PALETTE) - FALLBACK)]
+
+
+#: rcParams of every figure (besides the style): light grid, small fonts, deterministic files
+RC = {"figure.dpi": 100, "savefig.dpi": 110, "figure.figsize": (9.0, 5.0), "axes.grid": True,
+      "grid.alpha": 0.3, "font.size": 9, "legend.fontsize": 8, "axes.titlesize": 10,
+      "lines.linewidth": 1.1, "svg.hashsalt": "vehicle-observers", "path.simplify": True}
+
+
+def apply_style():
+    """Make :data:`PALETTE` the colour cycle of every figure and set :data:`RC`; labels use
+    mathtext (``$v_y$``) and carry units."""
+    matplotlib.rcParams.update({"axes.prop_cycle": plt.style.library[STYLE]["axes.prop_cycle"],
+                                "patch.facecolor": PALETTE[0], **RC})
+
+
+apply_style()
 
 
 def time_series(ax, t, series: dict, ylabel: str = "", title: str = "", styles=None,
@@ -39,6 +100,27 @@ def stacked(t, panels: list[tuple[str, dict]], title: str = "", styles=None, fig
     if title:
         fig.suptitle(title)
     return fig
+
+
+def grouped_bars(ax, groups, series, value, log: bool = False, labels=None) -> float:
+    """One group of bars per entry of ``groups`` (x axis), one bar per entry of ``series`` in
+    each, coloured by :func:`color`. ``value(group, series)`` is the bar's height, ``None`` or
+    NaN for no bar; ``log``: logarithmic y axis; ``labels``: tick labels (default the groups).
+    Returns the bar width (the groups span 0.8 of a unit)."""
+    w = 0.8 / max(len(series), 1)
+    for j, s in enumerate(series):
+        xs, ys = [], []
+        for i, g in enumerate(groups):
+            v = value(g, s)
+            if v is not None and np.isfinite(v):
+                xs.append(i + j * w)
+                ys.append(v)
+        ax.bar(xs, ys, w, label=s, color=color(s, j))
+    ax.set_xticks(np.arange(len(groups)) + 0.4 - w / 2)
+    ax.set_xticklabels(list(groups) if labels is None else labels)
+    if log:
+        ax.set_yscale("log")
+    return w
 
 
 def tyre_sector(tires: dict, alpha_max: float, bounds: dict | None = None):

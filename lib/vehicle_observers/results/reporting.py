@@ -8,6 +8,9 @@ Usage in a notebook::
     rep.claim("Yacine 2015", "Fig. 1", "fig1_real_log", "yaw-rate fit",
               Rule("fit_r", reproduced="value >= 0.95", paper="model fits the measurements"))
     rep.timing("observer_us_per_step", 0.8, "us")     # wall clock: build/timings/, never committed
+    rep.record(metrics={"rmse_r": (0.01, "rad/s", "note")},    # many at once, in order
+               claims=[dict(paper=..., item=..., figure=..., metric=..., rule=Rule(...))],
+               timings={"solve_s": (1.2, "s")})
     rep.write()                                       # metrics.json
 
 The verdict of a claim is computed by its :class:`~vehicle_observers.results.rules.Rule` from
@@ -29,23 +32,15 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results import plotting  # noqa: F401  (applies the one figure style)
 from vehicle_observers.results.rules import VERDICTS, Rule, fmt, round_sig
 
-#: one style for every figure: colour-blind-safe colour cycle (Tableau colour-blind 10),
-#: light grid, small fonts; labels use mathtext ($v_y$) and carry units
-matplotlib.rcParams.update({
-    "axes.prop_cycle": matplotlib.style.library["tableau-colorblind10"]["axes.prop_cycle"],
-    "figure.dpi": 100, "savefig.dpi": 110, "figure.figsize": (9.0, 5.0), "axes.grid": True,
-    "grid.alpha": 0.3, "font.size": 9, "legend.fontsize": 8, "axes.titlesize": 10,
-    "lines.linewidth": 1.1, "svg.hashsalt": "vehicle-observers", "path.simplify": True,
-})
-
-__all__ = ["Report", "Rule", "VERDICTS", "load_metrics", "interactive_dir"]
+__all__ = ["Report", "Rule", "VERDICTS", "load_metrics", "interactive_dir", "jsonable"]
 
 
 def interactive_dir() -> Path:
@@ -53,7 +48,9 @@ def interactive_dir() -> Path:
     return repo_root() / "build" / "interactive"
 
 
-def _jsonable(v):
+def jsonable(v):
+    """``v`` as JSON: numpy scalars and arrays as numbers and lists, non-finite floats as
+    strings (``"nan"``, ``"inf"``), dict keys as strings."""
     if isinstance(v, (np.floating, float)):
         v = float(v)
         return v if math.isfinite(v) else str(v)
@@ -62,11 +59,11 @@ def _jsonable(v):
     if isinstance(v, (np.bool_,)):
         return bool(v)
     if isinstance(v, np.ndarray):
-        return [_jsonable(x) for x in v.tolist()]
+        return [jsonable(x) for x in v.tolist()]
     if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
+        return [jsonable(x) for x in v]
     if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
+        return {str(k): jsonable(x) for k, x in v.items()}
     return v
 
 
@@ -149,7 +146,7 @@ class Report:
         Returns the stored (rounded) value."""
         if (rtol is not None or atol is not None) and not why:
             raise ValueError(f"metric {name!r}: say why the tolerance is needed (why=...)")
-        stored = round_sig(_jsonable(value), digits)
+        stored = round_sig(jsonable(value), digits)
         entry = {"value": stored, "unit": unit, "note": note, "digits": digits}
         if rtol is not None:
             entry["rtol"] = float(rtol)
@@ -167,7 +164,7 @@ class Report:
     def timing(self, name: str, value, unit: str = "s", note: str = ""):
         """A wall-clock measurement: written to ``build/timings/<notebook>.json`` (ignored by
         git), never to metrics.json, so regeneration leaves the committed files unchanged."""
-        self.timings[name] = {"value": _jsonable(value), "unit": unit, "note": note}
+        self.timings[name] = {"value": jsonable(value), "unit": unit, "note": note}
         return value
 
     # ------------------------------------------------------------------ claims -----------
@@ -180,10 +177,32 @@ class Report:
             raise TypeError(f"claim {paper} {item}: rule must be a Rule (the verdict is computed "
                             f"from it), got {type(rule).__name__}")
         j = rule.judge(self.values())
-        self.claims.append(Claim(paper, item, figure, metric, round_sig(_jsonable(j.value), 4),
+        self.claims.append(Claim(paper, item, figure, metric, round_sig(jsonable(j.value), 4),
                                  rule.paper, j.verdict, note, rule.text(), j.proves_little,
                                  {k: v for k, v in asdict(rule).items() if v is not None}))
         return j
+
+    def record(self, *, metrics: dict | None = None, claims=(), timings: dict | None = None):
+        """Record many entries at once, in order: ``metrics`` ``{name: (value, unit, note)}``
+        (unit and note optional) with :meth:`metric`, then ``timings`` (same form, wall
+        clock) with :meth:`timing`, then ``claims``, keyword dicts of :meth:`claim` (each
+        verdict computed from the metrics recorded so far, these included). The experiment
+        functions of the reproductions return their metrics and claims in these forms.
+        Returns ``None``, so that a notebook cell ending with it shows nothing."""
+        for kind, entries, add in (("metrics", metrics, self.metric),
+                                   ("timings", timings, self.timing)):
+            for name, v in (entries or {}).items():
+                if not isinstance(v, tuple) or not 1 <= len(v) <= 3:
+                    raise ObserverArgumentError(
+                        f"Report.record: {kind}[{name!r}] must be a tuple (value, unit, note) "
+                        f"with unit and note optional, got {type(v).__name__} {v!r:.60}")
+                add(name, *v)
+        for c in claims:
+            if not isinstance(c, dict):
+                raise ObserverArgumentError(f"Report.record: each claim is a dict of "
+                                            f"Report.claim's arguments, got {type(c).__name__}")
+            self.claim(**c)
+        return None
 
     # ------------------------------------------------------------------ output -----------
     def write(self) -> None:
@@ -193,13 +212,13 @@ class Report:
         doc = {"notebook": self.notebook, "quick": self.quick, "seed": self.seed,
                "metrics": self.metrics, "claims": [c.__dict__ for c in self.claims],
                "files": sorted(self.files + ["metrics.json"])}
-        path.write_text(json.dumps(_jsonable(doc), indent=1, sort_keys=False) + "\n")
+        path.write_text(json.dumps(jsonable(doc), indent=1, sort_keys=False) + "\n")
         if self.timings:
             tdir = repo_root() / "build" / "timings"
             tdir.mkdir(parents=True, exist_ok=True)
             (tdir / f"{self.notebook}.json").write_text(
                 json.dumps({"notebook": self.notebook, "quick": self.quick,
-                            "timings": _jsonable(self.timings)}, indent=1) + "\n")
+                            "timings": jsonable(self.timings)}, indent=1) + "\n")
         return None
 
     @property

@@ -1,6 +1,55 @@
-"""``python -m vehicle_observers_papers.benchmark_study``: accuracy and speed benchmark (``make bench``)."""
+"""``python -m vehicle_observers_papers.benchmark_study`` (``make bench``): the accuracy
+benchmark, the speed benchmarks and the independent-plant study; writes ``build/benchmark/``
+and prints the tables."""
 
-from vehicle_observers_papers.benchmark_study.suite import main
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from vehicle_observers.data.logs import repo_root
+from vehicle_observers.models.vehicle import load_vehicle
+
+from vehicle_observers_papers.benchmark_study import plant_study, runs, speed, writers
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m vehicle_observers_papers.benchmark_study")
+    ap.add_argument("--quick", action="store_true", help="short runs (CI)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=str(repo_root() / "build" / "benchmark"),
+                    help="output folder (default build/benchmark, ignored by git: wall-clock "
+                    "results change on every run)")
+    ap.add_argument("--no-topics", action="store_true", help="skip the speed benchmarks")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    res = runs.run(seed=args.seed, quick=args.quick,
+                   progress=lambda s: print(f"  running {s}", file=sys.stderr, flush=True))
+    topics = None if args.no_topics else speed.topic_benchmarks(args.quick)
+    paths = writers.write_outputs(res, Path(args.out), topics)
+    print(writers.markdown_table(res["rows"], writers.summary_columns()))
+    if topics:
+        print()
+        print(writers.markdown_table(topics, writers.SPEED_COLUMNS))
+    for e in res["errors"]:
+        print("error:", e)
+    km = runs.key_metrics(res)
+    rv = {o: km.get(f"revs.{o}.rmse_vy") for o in ("ekf", "rts")}
+    best = (km["revs.best_causal"], km["revs.best_causal_rmse_vy"]) \
+        if "revs.best_causal" in km else None
+    revs_diag = None
+    if "revs" in res["logs"] and "revs" in res["tunings"]:
+        revs_diag = plant_study.rts_diagnosis(res["logs"]["revs"],
+                                              load_vehicle("revs250lm").params,
+                                              res["tunings"]["revs"][0], seed=args.seed)
+    section = plant_study.plant_section(args.seed, args.quick, best, rv["rts"], rv["ekf"],
+                                        revs_diag=revs_diag)
+    writers.print_plant_section(section)
+    print(f"\nwrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(main())

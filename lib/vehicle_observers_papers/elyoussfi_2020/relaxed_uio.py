@@ -8,8 +8,8 @@ UIO (20)-(24), designs (a) [22] and (b) Theorem 2), :mod:`vehicle_observers.base
 :mod:`vehicle_observers_papers.elyoussfi_2020.constants` (constants).
 
 Metrics are returned as ``{name: (value, unit, note)}`` in the order the notebook reports
-them; :func:`record` writes such a dict into a
-:class:`~vehicle_observers.results.reporting.Report`; :func:`claims` gives the claims with
+them; :meth:`Report.record <vehicle_observers.results.reporting.Report.record>` writes
+such a dict (and the claims); :func:`claims` gives the claims with
 their :class:`~vehicle_observers.results.rules.Rule` (verdicts computed from the metrics).
 Units: SI (m/s, rad/s, rad, s) unless a
 name says otherwise; arrays are (N, ...) over samples.
@@ -23,7 +23,7 @@ from vehicle_observers.baselines import uio_ekf as ub
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.observers import uio
-from vehicle_observers.results.plotting import time_series
+from vehicle_observers.results.plotting import TRUTH, color, time_series
 from vehicle_observers.results.rules import Rule, fmt
 from vehicle_observers.results.tables import Table, show_table
 
@@ -33,25 +33,14 @@ PAPER = "El Youssfi 2020 (relaxed UIO)"
 #: state names / units of the augmented state X = [v_y, r, f]
 STATES = (("vy", "m/s"), ("r", "rad/s"), ("f", "rad"))
 #: plot styles of the estimate figures
-STYLES = {"true": {"color": "k"}, "(b) Theorem 2": {"color": "C3"},
-          "(a) [22]": {"color": "C0", "ls": "--"}, "EKF": {"color": "C2", "ls": "-."},
-          "EKF, tau rule": {"color": "C1", "ls": ":"}}
+STYLES = {"true": {"color": TRUTH}, "(b) Theorem 2": {"color": color("elyoussfi2020/theorem2")},
+          "(a) [22]": {"color": color("elyoussfi2020/ref22"), "ls": "--"},
+          "EKF": {"color": color("elyoussfi2020/ekf"), "ls": "-."},
+          "EKF, tau rule": {"color": color("elyoussfi2020/ekf-tau"), "ls": ":"}}
 #: correlation time [s] of the EKF's dt-independent noise rule (:func:`ub.noise_rule`,
 #: ``q = s^2 tau``): the rate bounds are stated per second, so a drift at the bound is
 #: assumed to persist for about 1 s. A stated choice, not fitted to the run.
 TAU_NOISE = 1.0
-
-
-def record(rep, metrics: dict | None = None, claims=(), timings: dict | None = None) -> None:
-    """Write ``{name: (value, unit, note)}`` metrics, claim keyword dicts of
-    :meth:`Report.claim` and ``{name: (value, unit, note)}`` wall-clock timings (to
-    :meth:`Report.timing`, never metrics) into the report ``rep`` (in order)."""
-    for name, (value, unit, note) in (metrics or {}).items():
-        rep.metric(name, value, unit, note)
-    for name, (value, unit, note) in (timings or {}).items():
-        rep.timing(name, value, unit, note)
-    for c in claims:
-        rep.claim(**c)
 
 
 # ------------------------------------------------------------ identification, designs ----

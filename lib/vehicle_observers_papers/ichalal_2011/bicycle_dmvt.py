@@ -1,9 +1,10 @@
 """Experiments and figures of notebook 04 (Ichalal, Arioui, Mammar, MED 2011, Figs. 2-5).
 
 Each experiment function returns plain dicts / arrays and a ``"metrics"`` dict
-``{name: (value, unit, note)}`` (the notebook passes it to :func:`record`, which writes it
-with ``Report.metric`` in the same order); each ``fig_*`` function returns a matplotlib
-Figure that the notebook saves with ``rep.savefig``. Equations and the observer itself: see
+``{name: (value, unit, note)}`` (the notebook records it with
+:meth:`~vehicle_observers.results.reporting.Report.record`, in the same order); each
+``fig_*`` function returns a matplotlib Figure that the notebook saves with ``rep.savefig``.
+Equations and the observer itself: see
 :mod:`vehicle_observers.observers.dmvt` (DMVT observer, LMIs (23), regions (35)-(36)),
 :mod:`vehicle_observers.models.bicycle` (model (25), tracking law (27), Jacobian (31)-(33)) and
 :mod:`vehicle_observers.baselines.dmvt_ekf` (filterpy EKF/UKF on the same data).
@@ -21,38 +22,20 @@ from vehicle_observers.core.metrics import rmse
 from vehicle_observers.design.lmi import disk, halfplane
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
+from vehicle_observers.results import plotting as PLOT
 from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
 
 from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 PAPER = "Ichalal 2011"
-#: colours (tableau-colorblind10): no region, region, EKF, UKF
-COLORS = {"noreg": "#C85200", "reg": "#006BA4", "ekf": "k", "ukf": "#898989"}
+#: colours of no region, region, EKF, UKF (:data:`vehicle_observers.results.plotting.COLORS`)
+COLORS = {k: PLOT.COLORS[f"ichalal2011/{k}"] for k in ("noreg", "reg", "ekf", "ukf")}
 #: initial estimate of the observer runs (x(0) = 0; not printed in the paper)
 XHAT0 = (0.1, -0.1, 0.1, 0.5)
 #: half-widths of the random initial-error box (robustness study, and the filters' P0)
 E0_SCALE = (0.2, 0.1, 0.2, 0.5)
 _KEYS = ("noreg", "reg")
-
-
-def record(rep, metrics: dict) -> None:
-    """Write ``{name: (value, unit, note)}`` (note optional) with ``rep.metric``, in order."""
-    for name, v in metrics.items():
-        rep.metric(name, *v)
-
-
-def record_claims(rep, claims) -> None:
-    """Write each claim of :func:`paper_claims` with ``rep.claim`` (verdict computed by its
-    rule from the metrics recorded so far), in order."""
-    for c in claims:
-        rep.claim(**c)
-
-
-def record_timings(rep, timings: dict) -> None:
-    """Write wall-clock ``{name: (value, unit)}`` with ``rep.timing`` (never a metric)."""
-    for name, (value, unit) in timings.items():
-        rep.timing(name, value, unit)
 
 
 def claims_table(rep):
@@ -453,7 +436,7 @@ def region_sweep_study(vertices, C, a_grid, R_grid, tol_R: float = 0.1,
 
 def printed_vertices_check(C, a: float, R: float) -> dict:
     """Side check: LMIs (23) (r = 1) on the printed vertices (34) of
-    :func:`papers.ichalal2011.printed_jacobian_vertices`, without and with the region.
+    :func:`.constants.printed_jacobian_vertices`, without and with the region.
 
     Returns ``designs`` ``{"printed_noreg", "printed_reg"}`` and ``metrics`` (max |Im|
     [1/s], min damping, min relative LMI margin)."""

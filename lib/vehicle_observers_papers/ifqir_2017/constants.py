@@ -12,7 +12,7 @@ l_r = 1.44 m, and nominal stiffness from the same tyre sector bounds: ``c_0 = M_
 (front 4.2e4, rear 4.9e4 N/rad are the zero-slip slopes of Yacine's tyres), so that the
 +-10 % box ``[0.9 c_0, 1.1 c_0]`` has the linear-range stiffness as its upper edge and
 reaches down to 0.82 M_1, i.e. it contains the secant stiffness of the Pacejka tyres up to
-a few degrees of slip (front: 6.4 deg, rear: 3.6 deg with ``papers/yacine2015`` tyres).
+a few degrees of slip (front: 6.4 deg, rear: 3.6 deg with ``yacine_2015.constants`` tyres).
 
 Design constants (not printed; chosen here): ISS decay ``eps_decay`` = 1 1/s, Metzler
 diagonal shift ``epsilon_shift`` = 1000 1/s (bounds the gains), membership-rate bound from
@@ -97,7 +97,7 @@ def design(bands_: SpeedBands | None = None, veh: UncertainBicycle | None = None
 
 
 # ---- choices for the real log (Revs Ferrari 250 LM, 100 Hz, v_x 16.5-61 m/s) -------------
-#: vehicle from papers/revs250lm (m, I_z, l_f, l_r, tuned C_f, C_r as nominal), +-10 %
+#: vehicle from leanza_2021.constants (m, I_z, l_f, l_r, tuned C_f, C_r as nominal), +-10 %
 revs_rel_unc = 0.10
 #: three bands of similar v_max / v_min ratio covering 16.5-61.2 m/s, and one band
 revs_bands = SpeedBands((16.0, 30.0, 45.0, 62.0))

@@ -97,8 +97,8 @@ def observer_step_check(des: iv.IntervalDesign, dt: float = IF.Ts, seed: int = 0
 def design_study(seed: int = 0, quick: bool = False, veh: iv.UncertainBicycle | None = None,
                  bands: iv.SpeedBands | None = None) -> dict:
     """Theorem 2 (17)-(21) for the switched bands (22) (``bands``, default
-    :data:`papers.ifqir2017.bands`) and for one band over the same range (non-switched), both
-    certified, for the vehicle ``veh`` (default :data:`papers.ifqir2017.vehicle`); the
+    :data:`.constants.bands`) and for one band over the same range (non-switched), both
+    certified, for the vehicle ``veh`` (default :data:`.constants.vehicle`); the
     a-posteriori blended check of (19) (:func:`interval.blended_iss_margin`, 300 random
     weights per mode in quick mode, else 3000, drawn from ``seed``) and the
     average dwell time (:func:`interval.dwell_time_bound`). Returns ``des``, ``des1``
@@ -147,7 +147,7 @@ def log_ratio(L, L_printed) -> np.ndarray:
 
 def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> dict:
     """Designed ``L_i^j``, ``P_i^j`` next to the slides' printed solution (defaults:
-    :data:`papers.ifqir2017.L_printed` (3, 4, 2), ``P_printed`` (3, 4, 2)), all three modes.
+    :data:`.constants.L_printed` (3, 4, 2), ``P_printed`` (3, 4, 2)), all three modes.
 
     ``L = [L1, L2]`` with ``L1`` [m/s] (v_y row) and ``L2`` [1/s] (r row).
     ``shift_designed`` / ``shift_printed`` (2, 2): shift of ``L1`` [m/s] from the ``v_max``
@@ -218,8 +218,8 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
 
 def polarity_study(printed: dict) -> dict:
     """Theorem 2 designs compared with the printed gains under both vertex polarities of
-    ``1/v_x`` (chosen: :data:`papers.ifqir2017.inv_vx_upper_first`), each with the
-    repository's ``epsilon`` (:data:`papers.ifqir2017.epsilon_shift`) and with the printed
+    ``1/v_x`` (chosen: :data:`.constants.inv_vx_upper_first`), each with the
+    repository's ``epsilon`` (:data:`.constants.epsilon_shift`) and with the printed
     gains' own smallest (20) shift under that polarity (``printed`` =
     :func:`printed_solution_study` output, rounded up to the next 1/s), and the slides'
     single-gamma objective (one gamma shared by all modes) beside the per-mode sum, all three
@@ -429,7 +429,7 @@ def enclosure_by_band(res: iv.IntervalResult, ref: np.ndarray, t: np.ndarray, ay
 def revs_experiment(quick: bool = False, span: float | None = None) -> dict:
     """Section 6: the Revs Ferrari 250 LM log (100 Hz; first :data:`REVS_QUICK_SPAN` s in quick
     mode, or the first ``span`` s if given), steering despiked, designs
-    :func:`papers.ifqir2017.revs_design` (switched, ``revs_bands``) and single-band, bounds
+    :func:`.constants.revs_design` (switched, ``revs_bands``) and single-band, bounds
     ``revs_steer_noise`` [rad] and ``revs_y_noise`` [rad/s], initial box :data:`REVS_BOX0`.
     Reference = the INS ``v_y`` and the gyro. Returns ``log``, ``rdes``, ``rdes1``,
     ``ref`` (N, 2), ``res``/``res1``, ``m``/``m1`` (enclosure after :data:`REVS_T_SKIP` s,

@@ -24,6 +24,7 @@ from vehicle_observers.core.timing import best_time
 from vehicle_observers.data import road
 from vehicle_observers.models import fullcar
 from vehicle_observers.observers import sliding_mode as smo
+from vehicle_observers.results.plotting import PALETTE
 from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
 
@@ -119,7 +120,7 @@ def warp_invisibility(p=R.fullcar) -> dict:
 
 
 def decimate(*a):
-    """:func:`.results.reporting.decimate` with 1500 points (the notebook's figure density)."""
+    """:func:`vehicle_observers.core.arrays.decimate` with 1500 points (the notebook's figure density)."""
     return _decimate(*a, max_points=1500)
 
 
@@ -203,7 +204,7 @@ def flipped_adaptation(man, Xs, mode: str = "sat") -> dict:
 
 def mu_step_study(T: float, mu_after: float = 0.5, modes=("sign", "sat"), adapt=ADAPT) -> tuple:
     """Road-friction step ``mu 1 -> mu_after`` at ``T/2`` in the truth
-    (:func:`.papers.rabhi2004.part_a_truth_mu_step`), the observer model unchanged (nominal
+    (:func:`.constants.part_a_truth_mu_step`), the observer model unchanged (nominal
     slip stiffnesses of ``mu = 1``): ``(man, Xs, runs)`` with ``runs`` as
     :func:`adaptation_study`."""
     man, Xs = R.part_a_truth_mu_step(T, mu_after)
@@ -654,8 +655,8 @@ def paper_claims(m: dict) -> list[dict]:
 
 
 # ----------------------------------------------------------------- figures ----------------
-#: colour-blind-safe palette (matplotlib style ``tableau-colorblind10``); truth is black
-CB = plt.style.library["tableau-colorblind10"]["axes.prop_cycle"].by_key()["color"]
+#: the colour-blind-safe palette of every figure (:mod:`vehicle_observers.results.plotting`)
+CB = PALETTE
 
 
 def _truth_vs_est(ax, t, truth, est, title, est_label="observer", true_label="true", ylabel=""):

@@ -20,6 +20,7 @@ from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
 from vehicle_observers.observers.differentiators import levant_differentiator
+from vehicle_observers.results import plotting as PLOT
 from vehicle_observers.results.rules import round_sig
 
 from vehicle_observers_papers.yacine_2015 import constants as yacine2015
@@ -292,8 +293,8 @@ def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False
 
 
 # ------------------------------------------------------------------ figures ----------------
-#: colour-blind-safe style of every figure of this notebook
-STYLE = "tableau-colorblind10"
+#: the colour-blind-safe style of every figure (:mod:`vehicle_observers.results.plotting`)
+STYLE = PLOT.STYLE
 
 
 def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.vx_max)):
