@@ -50,11 +50,14 @@ class FilterRun(Trajectory):
         return self.estimator
 
 
-def _result(name, dt, X, Pd, seconds, names, info=None) -> FilterRun:
-    n = X.shape[1]
+def _names(names, n) -> tuple[str, ...]:
     names = tuple(f"x{i}" for i in range(n)) if names is None else tuple(names)
     if len(names) != n:
         raise ObserverArgumentError(f"names must give the {n} states, got {names}")
+    return names
+
+
+def _result(name, dt, X, Pd, seconds, names, info=None) -> FilterRun:
     return FilterRun(dt * np.arange(len(X)), X, names, seconds=seconds, estimator=name,
                      info=dict(info or {}), P_diag=Pd)
 
@@ -129,6 +132,7 @@ def run_ekf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, jac: Cal
     from filterpy.kalman import ExtendedKalmanFilter
 
     z, u, x0, n, p = _check(z, u, x0, P0, Q, R, dt)
+    names = _names(names, n)
     kf = ExtendedKalmanFilter(dim_x=n, dim_z=p)
     kf.x = x0.copy()
     kf.P = np.array(P0, dtype=float)
@@ -169,6 +173,7 @@ def run_ukf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, alpha: f
     from vehicle_observers.baselines.kalman import nearest_spd
 
     z, u, x0, n, p = _check(z, u, x0, P0, Q, R, dt)
+    names = _names(names, n)
     cur = {"u": u[0]}
     pts = MerweScaledSigmaPoints(n, alpha=alpha, beta=beta, kappa=kappa)
     kf = UnscentedKalmanFilter(dim_x=n, dim_z=p, dt=dt, points=pts,

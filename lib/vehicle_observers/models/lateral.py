@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models.tires import (
     LinearTire,
     Pacejka,
@@ -277,12 +278,14 @@ def _check_inputs(delta, vx, dt, substeps):
     delta = np.ascontiguousarray(delta, dtype=float)
     vx = np.ascontiguousarray(np.broadcast_to(vx, delta.shape), dtype=float)
     if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(vx))):
-        raise ValueError("steering and speed must be finite")
+        raise ObserverArgumentError("steering and speed must be finite")
     if np.any(vx <= 0):
         k = int(np.argmax(vx <= 0))
-        raise ValueError(f"v_x must be > 0 (the model divides by it): v_x[{k}] = {vx[k]}")
-    if dt <= 0 or int(substeps) < 1:
-        raise ValueError(f"need dt > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+        raise ObserverArgumentError(f"v_x must be > 0 (the model divides by it): v_x[{k}] = "
+                                    f"{vx[k]}")
+    if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0) or int(substeps) < 1:
+        raise ObserverArgumentError(f"need a finite dt > 0 and substeps >= 1, got dt={dt}, "
+                                    f"substeps={substeps}")
     return delta, vx
 
 
