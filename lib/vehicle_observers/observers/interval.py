@@ -88,7 +88,7 @@ import numpy as np
 from numba import njit
 
 from vehicle_observers.core.errors import CertificationError, ObserverArgumentError
-from vehicle_observers.core.protocol import ObserverBase, Trajectory
+from vehicle_observers.core.protocol import ObserverBase, Trajectory, check_sample_period
 from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat
 from vehicle_observers.models.uncertain_bicycle import (
     N_STATE,
@@ -613,12 +613,7 @@ class IntervalObserver(ObserverBase):
 
     def check_data(self, t, u, y, x0=None):
         t, u, y, x0 = super().check_data(t, u, y, x0)
-        d = np.diff(t)
-        if np.abs(d - self.dt).max() > DT_RTOL * self.dt:
-            k = int(np.argmax(np.abs(d - self.dt)))
-            raise ObserverArgumentError(f"{type(self).__name__}: t must be sampled every dt = "
-                                        f"{self.dt:.6g} s (fixed-step observer); step {k} is "
-                                        f"{d[k]:.6g} s")
+        check_sample_period(t, self.dt, type(self).__name__, DT_RTOL)
         return t, u, y, x0
 
     def _box(self, y, x0):

@@ -61,7 +61,7 @@ import numpy as np
 from numba import njit
 
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
-from vehicle_observers.core.protocol import ObserverBase, Trajectory
+from vehicle_observers.core.protocol import ObserverBase, Trajectory, check_sample_period
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
 from vehicle_observers.models.lateral import (
@@ -560,12 +560,7 @@ class TSPremiseObserver(ObserverBase):
 
     def check_data(self, t, u, y, x0=None):
         t, u, y, x0 = super().check_data(t, u, y, x0)
-        d = np.diff(t)
-        if np.abs(d - self.dt).max() > DT_RTOL * self.dt:
-            k = int(np.argmax(np.abs(d - self.dt)))
-            raise ObserverArgumentError(f"TSPremiseObserver: t must be sampled every dt = "
-                                        f"{self.dt:.6g} s (fixed-step observer); step {k} is "
-                                        f"{d[k]:.6g} s")
+        check_sample_period(t, self.dt, "TSPremiseObserver", DT_RTOL)
         if np.any(u[:, 1] <= 0):
             k = int(np.argmax(u[:, 1] <= 0))
             raise ObserverArgumentError(f"TSPremiseObserver: u column 1 (vx_mps) must be > 0 "
