@@ -7,7 +7,7 @@ import pytest
 from vehicle_observers.baselines import kalman as K
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.core.metrics import rmse
-from vehicle_observers.core.protocol import Trajectory, run_readable
+from vehicle_observers.core.protocol import Observer, Trajectory, run_readable
 from vehicle_observers.data.logs import DriveLog, load_revs
 from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
 from vehicle_observers.models.lateral import LateralParams
@@ -227,7 +227,7 @@ def test_ekf_protocol_readable_step_equals_compiled_run(revs, use_ay):
     seg = revs.segment(300.0, 305.0)
     t, u, y = _protocol(seg, use_ay)
     obs = K.LateralEKF(K.KalmanDesign(R.params, TUN, use_ay))
-    assert obs.design.certificate is None
+    assert obs.design.certificate is None and isinstance(obs, Observer)
     run = obs.run(t, u, y)
     ref = run_readable(obs, t, u, y)
     assert run.names == ref.names == K.STATE_NAMES
@@ -246,6 +246,7 @@ def test_ukf_protocol_readable_step_equals_filterpy_run(revs):
     seg = revs.segment(400.0, 402.0)
     t, u, y = _protocol(seg)
     obs = K.LateralUKF(K.KalmanDesign(R.params, TUN, True))
+    assert isinstance(obs, Observer)
     run = obs.run(t, u, y)
     ref = run_readable(obs, t, u, y)
     np.testing.assert_allclose(run.x, ref.x, rtol=0, atol=1e-10)

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
-from vehicle_observers.core.protocol import Trajectory, run_readable
+from vehicle_observers.core.protocol import Observer, Trajectory, run_readable
 from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 from vehicle_observers_papers.ifqir_2017 import constants as pp
@@ -229,6 +229,7 @@ def test_observer_protocol_readable_step_equals_compiled_run(design):
     uu = np.column_stack([vx, u])
     obs = iv.IntervalObserver(design, DT, ([-0.5, -0.1], [0.5, 0.1]), steer_noise=1e-3,
                               y_noise=2e-3, clip_speed=True)
+    assert isinstance(obs, Observer) and obs.design.certificate.ok
     run = obs.run(t, uu, X[:, 1])
     ref = run_readable(obs, t, uu, X[:, 1])
     np.testing.assert_allclose(run.lo, ref.lo, rtol=0, atol=1e-10)
@@ -309,6 +310,8 @@ def test_decay_rate_must_be_positive(eps):
 def test_observer_arguments_are_checked(design):
     t, vx, u, X = _drive(50)
     uu = np.column_stack([vx, u])
+    with pytest.raises(ObserverArgumentError, match="design must be an IntervalDesign"):
+        iv.IntervalObserver(design.model, DT, ([0, 0], [1, 1]))
     with pytest.raises(ObserverArgumentError, match="box0 must be two finite"):
         iv.IntervalObserver(design, DT, ([1, 0], [0, 1]))
     with pytest.raises(ObserverArgumentError, match="y_noise must be finite and >= 0"):

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
-from vehicle_observers.core.protocol import run_readable
+from vehicle_observers.core.protocol import Observer, run_readable
 from vehicle_observers.data import plant
 from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.models.vehicle import builtin_vehicles, load_vehicle
@@ -174,6 +174,7 @@ def test_observer_protocol_readable_step_equals_compiled_run(bmw_design):
     t, u, X = _drive()
     obs = ic.CoordinateIntervalObserver(bmw_design, DT, ([-1.0, -0.2], [1.0, 0.2]),
                                         steer_noise=1e-3, y_noise=1e-3)
+    assert isinstance(obs, Observer)
     run = obs.run(t, u, X[:, 1])
     ref = run_readable(obs, t, u, X[:, 1])
     np.testing.assert_allclose(run.lo, ref.lo, rtol=0, atol=1e-10)

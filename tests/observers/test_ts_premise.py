@@ -4,7 +4,7 @@ forces (46), bound (34)."""
 import numpy as np
 import pytest
 from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError, ObserverArgumentError
-from vehicle_observers.core.protocol import Trajectory, run_readable
+from vehicle_observers.core.protocol import Observer, Trajectory, run_readable
 from vehicle_observers.data import scenarios
 from vehicle_observers.models import lateral
 from vehicle_observers.observers import ts_premise as to
@@ -125,6 +125,7 @@ def test_observer_protocol_readable_step_equals_compiled_run(design, quick_clean
     t, u, y = _protocol_data(q, vyp)
     for sub in (1, 3):
         obs = to.TSPremiseObserver(design, q.dt, P, substeps=sub)
+        assert isinstance(obs, Observer) and obs.bounds(x0) is None
         run = obs.run(t, u, y, x0)
         ref = run_readable(obs, t, u, y, x0)
         assert run.names == ref.names == to.STATE_NAMES

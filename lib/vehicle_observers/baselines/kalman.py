@@ -32,9 +32,13 @@ Noise tuning (:func:`tune`): maximum likelihood of the innovations of the *measu
 (yaw rate and, if present, a_y) over ``log(q_vy, q_r, q_b, R_r, R_ay)``, Nelder-Mead from a
 sensor-spec start. The reference ``v_y`` is never read. The same call tunes any car's log.
 
-Implementations:
+Implementations (results: :class:`KalmanRun`, a
+:class:`~vehicle_observers.core.protocol.Trajectory`):
 
-- :func:`ekf` numba EKF (the fast one used by the CLI and the benchmark),
+- :class:`LateralEKF` / :class:`LateralUKF`: the EKF and the UKF as observers of
+  :mod:`vehicle_observers.core.protocol` (readable numpy ``step``, ``run`` the numba kernel /
+  filterpy), built from a :class:`KalmanDesign` (car, noise tuning; no LMI certificate);
+- :func:`ekf` numba EKF on a drive log (the fast one used by the CLI and the benchmark),
 - :func:`ekf_filterpy` the same filter with ``filterpy.kalman.ExtendedKalmanFilter`` (reference
   implementation and speed baseline; equal to :func:`ekf` to round-off, see the tests),
 - :func:`ukf_filterpy` ``filterpy.kalman.UnscentedKalmanFilter`` (Merwe sigma points) with the

@@ -579,6 +579,10 @@ class IntervalObserver(ObserverBase):
     def __init__(self, design: IntervalDesign, dt: float, box0, steer_noise: float = 0.0,
                  y_noise: float = 0.0, substeps: int | None = None, clip_speed: bool = False):
         who = type(self).__name__
+        self.design = design
+        if not isinstance(self._des, IntervalDesign):
+            raise ObserverArgumentError(f"{who}: design must be an IntervalDesign, got "
+                                        f"{type(self._des).__name__}")
         _check_dt(dt, who)
         lo, hi = (np.asarray(b, dtype=float).reshape(-1) for b in box0)
         if lo.shape != (2,) or hi.shape != (2,) or np.any(lo > hi) \
@@ -588,7 +592,6 @@ class IntervalObserver(ObserverBase):
         for name, v in (("steer_noise", steer_noise), ("y_noise", y_noise)):
             if not (np.isfinite(v) and v >= 0):
                 raise ObserverArgumentError(f"{who}: {name} must be finite and >= 0, got {v!r}")
-        self.design = design
         self.dt = float(dt)
         self.box0 = (lo, hi)
         self.steer_noise, self.y_noise = float(steer_noise), float(y_noise)

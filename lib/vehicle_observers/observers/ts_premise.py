@@ -1,5 +1,5 @@
 """Yacine 2015 estimation chain: curvature (11), premise estimate (26)-(28), LMI Theorem 1
-(33), TS observer (31), force recovery (46) and the error bound (34).
+(33) and its certificate, TS observer (31) and force recovery (46).
 
 Reference: Z. Yacine, D. Ichalal, N. Ait-Oufroukh, S. Mammar, S. Djennoune, "Takagi-Sugeno
 observers: experimental application for vehicle lateral dynamics estimation", IEEE TCST
