@@ -4,6 +4,8 @@ hand-written Kalman filter whose transition matrix is the RK4 polynomial of A h.
 import numpy as np
 import pytest
 from vehicle_observers.baselines.filterpy_generic import numerical_jacobian, rk4_step, run_ekf, run_ukf
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.core.protocol import Trajectory
 
 A = np.array([[-1.0, 2.0], [-3.0, -0.5]])
 B = np.array([[0.0], [1.0]])
@@ -58,6 +60,12 @@ def test_linear_model_equals_reference_kf(runner):
     # transform is exact for linear maps, the SPD repair never triggers here
     assert np.max(np.abs(run.x - ref)) < 1e-9
     assert run.us_per_step > 0
+    # one result type: a Trajectory at t = k dt with named states and the covariance diagonal
+    assert isinstance(run, Trajectory) and run.names == ("x0", "x1")
+    np.testing.assert_allclose(run.t, np.arange(len(z)) * DT)
+    assert run.P_diag.shape == run.x.shape and run.name == run.estimator
+    named = runner(_f, _h, z, u, DT, x0, P0, Q, R, names=("p_m", "v_mps"))
+    np.testing.assert_array_equal(named["v_mps"], run.x[:, 1])
     if runner is run_ukf:
         assert run.info["spd_repairs"] == 0
 
@@ -71,6 +79,13 @@ def test_numerical_jacobian_known_answer():
 
 def test_shape_errors_are_clear():
     z, u = _data(10)
+    for dt in (0.0, -DT, float("nan")):
+        with pytest.raises(ObserverArgumentError, match="dt .sample period. must be finite"):
+            run_ekf(_f, _h, z, u, dt, np.zeros(2), np.eye(2), np.eye(2), np.eye(1))
+    with pytest.raises(ObserverArgumentError, match="x0 must be finite"):
+        run_ukf(_f, _h, z, u, DT, [0.0, np.nan], np.eye(2), np.eye(2), np.eye(1))
+    with pytest.raises(ObserverArgumentError, match="names must give the 2 states"):
+        run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), np.eye(2), np.eye(1), names=("a",))
     with pytest.raises(ValueError, match="Q must be"):
         run_ekf(_f, _h, z, u, DT, np.zeros(2), np.eye(2), np.eye(3), np.eye(1))
     with pytest.raises(ValueError, match="u has 9 rows"):

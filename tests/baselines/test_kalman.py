@@ -5,7 +5,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from vehicle_observers.baselines import kalman as K
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.core.metrics import rmse
+from vehicle_observers.core.protocol import Observer, Trajectory, run_readable
 from vehicle_observers.data.logs import DriveLog, load_revs
 from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
 from vehicle_observers.models.lateral import LateralParams
@@ -204,3 +206,112 @@ def test_tuning_report_flags_bounds_and_identifiability(satory):
     assert "R_r" in rep["at_bound"]
     assert rep["floors"]["R_r"] == pytest.approx(K.noise_floors(K.thin(seg, 10))["R_r"])
     assert "R_r" not in K.tuning_report(seg, Y.params, tun)["at_bound"]
+
+
+# ------------------------------------------------------------------ observer contract ------
+def _protocol(seg, use_ay=True):
+    inp = K.prepare(seg)
+    u = np.column_stack([inp.delta, inp.vx])
+    y = np.column_stack([inp.yr, inp.ay])[:, :2 if use_ay else 1]
+    return inp.t, u, y
+
+
+@pytest.mark.parametrize("use_ay", [True, False])
+def test_ekf_protocol_readable_step_equals_compiled_run(revs, use_ay):
+    """The contract: run_readable (numpy predict with the RK4 map and its stage-Jacobian,
+    Joseph-form update) equals the numba kernel on 5 s of the Revs log. Tolerance 1e-10
+    absolute on v_y, r, b_ay of order 0.01-1 (observed ~1e-14): the kernel writes the
+    products in scalars, the readable step as matrix products, so each step differs by a few
+    ulps; the filter's error dynamics are contracting, they do not grow. The design has no
+    LMI certificate (a noise tuning)."""
+    seg = revs.segment(300.0, 305.0)
+    t, u, y = _protocol(seg, use_ay)
+    obs = K.LateralEKF(K.KalmanDesign(R.params, TUN, use_ay))
+    assert obs.design.certificate is None and isinstance(obs, Observer)
+    run = obs.run(t, u, y)
+    ref = run_readable(obs, t, u, y)
+    assert run.names == ref.names == K.STATE_NAMES
+    np.testing.assert_allclose(run.x, ref.x, rtol=0, atol=1e-10)
+    # the log front end is this observer on the despiked inputs
+    e = K.ekf(seg, R.params, TUN, use_ay=use_ay)
+    np.testing.assert_array_equal(e.x, run.x)
+    assert isinstance(e, Trajectory) and e.X is e.x and e.us_per_step > 0
+
+
+def test_ukf_protocol_readable_step_equals_filterpy_run(revs):
+    """The numpy UKF step (Merwe points, unscented transform, points redrawn at the prior as
+    filterpy does, SPD repair) equals filterpy's UKF to 1e-10 (observed ~2e-14; numpy's
+    cholesky of the lower factor against scipy's upper one, and matrix products in another
+    order, differ by ulps per step)."""
+    seg = revs.segment(400.0, 402.0)
+    t, u, y = _protocol(seg)
+    obs = K.LateralUKF(K.KalmanDesign(R.params, TUN, True))
+    assert isinstance(obs, Observer)
+    run = obs.run(t, u, y)
+    ref = run_readable(obs, t, u, y)
+    np.testing.assert_allclose(run.x, ref.x, rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(K.ukf_filterpy(seg, R.params, TUN).x, run.x)
+
+
+@pytest.mark.parametrize("cls", [K.LateralEKF, K.LateralUKF])
+def test_kalman_observers_are_causal(revs, cls):
+    """Changing every sample after k leaves the posterior up to k unchanged, bit for bit."""
+    seg = revs.segment(300.0, 302.0)
+    t, u, y = _protocol(seg)
+    obs = cls(K.KalmanDesign(R.params, TUN, True))
+    a = obs.run(t, u, y)
+    k = 120
+    u2, y2 = u.copy(), y.copy()
+    u2[k + 1:, 0] += 0.01
+    y2[k + 1:] += 0.05
+    b = obs.run(t, u2, y2)
+    np.testing.assert_array_equal(a.x[:k + 1], b.x[:k + 1])
+    assert np.abs(a.x[k + 2:] - b.x[k + 2:]).max() > 1e-4
+
+
+def test_rts_is_an_offline_trajectory(revs):
+    s = K.rts(revs.segment(300.0, 302.0), R.params, TUN)
+    assert isinstance(s, Trajectory) and not s.causal and s.name == "RTS"
+
+
+def test_theta_layout_follows_the_named_indices():
+    th = TUN.theta()
+    assert (th[K.Q_VY], th[K.Q_R], th[K.Q_B], th[K.R_R], th[K.R_AY]) == (
+        TUN.q_vy, TUN.q_r, TUN.q_b, TUN.R_r, TUN.R_ay)
+    assert K.KalmanTuning.from_theta(th, P0=TUN.P0) == TUN
+    assert list(K.THETA_NAMES) == ["q_vy", "q_r", "q_b", "R_r", "R_ay"]
+
+
+@pytest.mark.parametrize("col,attr", [("yaw_rate_radps", "yaw_rate"), ("ay_mps2", "ay"),
+                                      ("delta_roadwheel_rad", "delta"), ("vx_mps", "vx")])
+def test_log_with_nan_rows_is_refused_naming_row_and_column(revs, col, attr):
+    """A NaN row used to give NaN estimates from that row on (500 of them on this segment):
+    the EKF (and every Kalman function) refuses the log, naming the column and the row."""
+    seg = revs.segment(300.0, 305.0)
+    bad = replace(seg, **{attr: getattr(seg, attr).copy()})
+    getattr(bad, attr)[37] = np.nan
+    for fn in (K.ekf, K.rts, K.ekf_filterpy):
+        with pytest.raises(ObserverArgumentError, match=rf"column '{col}' has 1 non-finite .*row 37"):
+            fn(bad, R.params, TUN)
+
+
+def test_observer_arguments_are_checked(revs):
+    seg = revs.segment(300.0, 300.2)
+    t, u, y = _protocol(seg)
+    obs = K.LateralEKF(K.KalmanDesign(R.params, TUN, True))
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 2\)"):
+        obs.run(t, u, y[:, :1])
+    with pytest.raises(ObserverArgumentError, match=r"u must be \(N, 2\)"):
+        obs.run(t, u[:, :1], y)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 3 finite values"):
+        obs.run(t, u, y, np.zeros(2))
+    with pytest.raises(ObserverArgumentError, match="strictly increasing"):
+        obs.run(t[::-1], u, y)
+    u2 = u.copy()
+    u2[3, 1] = -1.0
+    with pytest.raises(ObserverArgumentError, match=r"vx_mps\) must be > 0.*row 3"):
+        obs.run(t, u2, y)
+    with pytest.raises(ObserverArgumentError, match="design must be a KalmanDesign"):
+        K.LateralEKF(TUN)
+    with pytest.raises(ObserverArgumentError, match="alpha must be > 0"):
+        K.LateralUKF(K.KalmanDesign(R.params, TUN), alpha=0.0)

@@ -86,7 +86,7 @@ def test_bias_coupling_slope_known_answer():
     Y = np.zeros((100, 3))
     Y[:, 2] = np.sin(t)
     Y[:, 0] = 0.25 * np.sin(t)
-    mk = lambda X_: K.KalmanResult("x", t, X_, np.zeros((100, 3, 3)), t, t)  # noqa: E731
+    mk = lambda X_: K.KalmanRun(t, X_, K.STATE_NAMES, P=np.zeros((100, 3, 3)), Ff=t, Fr=t)  # noqa: E731
     bc = SC.bias_coupling(mk(X), mk(Y))
     assert bc["slope"] == pytest.approx(0.25) and bc["r2"] == pytest.approx(1.0)
 

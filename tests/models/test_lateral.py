@@ -78,7 +78,50 @@ def test_relaxation_converges_to_steady_forces():
     np.testing.assert_allclose(X[-1], Xs[-1], rtol=1e-3)
 
 
+def test_packed_parameters_follow_the_named_indices():
+    """as_array() puts each constant at its named index (the kernels read P[M], P[TF_B], ...);
+    a linear tyre is encoded as (C_alpha, 0, 0, 0)."""
+    P = p.as_array()
+    assert P.shape == (lateral.N_PARAMS,)
+    named = ((lateral.M, p.m), (lateral.I_Z, p.I_z), (lateral.A_F, p.a_f), (lateral.A_R, p.a_r),
+             (lateral.R_F, p.r_f), (lateral.R_R, p.r_r), (lateral.L_S, p.l_s),
+             (lateral.TF_B, p.tire_f.B), (lateral.TF_C, p.tire_f.C), (lateral.TF_D, p.tire_f.D),
+             (lateral.TF_E, p.tire_f.E), (lateral.TR_B, p.tire_r.B), (lateral.TR_C, p.tire_r.C),
+             (lateral.TR_D, p.tire_r.D), (lateral.TR_E, p.tire_r.E))
+    for idx, v in named:
+        assert P[idx] == v
+    assert sorted(i for i, _ in named) == list(range(lateral.N_PARAMS))
+    lin = LateralParams(m=1.0, I_z=1.0, a_f=1.0, a_r=1.0, tire_f=LinearTire(7e4),
+                        tire_r=LinearTire(8e4))
+    assert lin.as_array()[lateral.TR_B:lateral.TR_E + 1].tolist() == [8e4, 0.0, 0.0, 0.0]
+
+
+def test_compiled_rhs_equals_numpy_rhs():
+    """The compiled S1 right-hand side (simulate_s1 and the scenario truth) equals the
+    vectorised numpy rhs_s1 / rhs_no_relaxation to round-off (1e-12 relative: the same
+    formulas; numpy's and LLVM's libm may differ in the last bit of atan / sin)."""
+    rng = np.random.default_rng(2)
+    P = p.as_array()
+    out = np.empty(4)
+    for _ in range(50):
+        X = rng.normal(size=4) * [0.5, 0.2, 2000, 2000]
+        d, vx = rng.uniform(-0.05, 0.05), rng.uniform(3, 17)
+        for exact in (True, False):
+            lateral.s1_rhs(X, d, vx, P, exact, True, out)
+            np.testing.assert_allclose(out, lateral.rhs_s1(X, d, vx, p, exact)[0], rtol=1e-12,
+                                       atol=1e-9)
+            lateral.s1_rhs(X, d, vx, P, exact, False, out)
+            np.testing.assert_allclose(out[:2], lateral.rhs_no_relaxation(X[:2], d, vx, p,
+                                                                          exact)[0],
+                                       rtol=1e-12, atol=1e-9)
+
+
 def test_bad_inputs():
+    from vehicle_observers.core.errors import ObserverArgumentError
+
+    for dt in (0.0, -1e-3, float("nan")):
+        with pytest.raises(ObserverArgumentError, match="dt > 0"):
+            lateral.simulate_s1([0, 0], np.zeros(4), np.ones(4), dt, p)
     with pytest.raises(ValueError, match=r"v_x must be > 0 .* v_x\[2\] = 0.0"):
         lateral.simulate_s1([0, 0], np.zeros(4), np.array([1.0, 1.0, 0.0, 1.0]), 0.01, p)
     with pytest.raises(ValueError, match="finite"):

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.core.protocol import Observer, Trajectory, run_readable
+from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 from vehicle_observers_papers.ifqir_2017 import constants as pp
 
@@ -30,12 +32,12 @@ def design_single():
 def test_lpv_matrices_match_eq3():
     cr, cf, vx = 4.1e4, 3.9e4, 12.0
     m, Iz, lf, lr = VEH.m, VEH.I_z, VEH.l_f, VEH.l_r
-    A = iv.lpv_A(1 / vx, vx, (cr, cf), VEH)
+    A = ub.lpv_A(1 / vx, vx, (cr, cf), VEH)
     assert A[0, 0] == pytest.approx(-(cf + cr) / (m * vx))
     assert A[0, 1] == pytest.approx((cr * lr - cf * lf) / (m * vx) - vx)
     assert A[1, 0] == pytest.approx((cr * lr - cf * lf) / (Iz * vx))
     assert A[1, 1] == pytest.approx(-(cr * lr**2 + cf * lf**2) / (Iz * vx))
-    B = iv.lpv_B((cr, cf), VEH)
+    B = ub.lpv_B((cr, cf), VEH)
     np.testing.assert_allclose(B.ravel(), [cf / m, cf * lf / Iz])
 
 
@@ -44,8 +46,8 @@ def test_elementwise_bounds_exact_at_corners_and_contain_random_members():
     box = VEH.xi_box
     corners = [(a, b) for a in box[0] for b in box[1]]
     for s, v in [(1 / 0.1, 6.0), (1 / 11.0, 17.5), (1 / 6.0, 6.0)]:
-        fn = lambda xi: iv.lpv_A(s, v, xi, VEH)
-        lo, nom, hi = iv.elementwise_bounds(fn, box)
+        fn = lambda xi: ub.lpv_A(s, v, xi, VEH)
+        lo, nom, hi = ub.elementwise_bounds(fn, box)
         Ac = np.array([fn(c) for c in corners])
         # exact: the bounds are attained at corners (not sampled, not loose)
         np.testing.assert_allclose(Ac.min(axis=0), lo, rtol=1e-12, atol=1e-12)
@@ -60,7 +62,7 @@ def test_elementwise_bounds_exact_at_corners_and_contain_random_members():
 
 def test_elementwise_bounds_rejects_non_affine():
     with pytest.raises(ValueError, match="not affine"):
-        iv.elementwise_bounds(lambda xi: np.array([[xi[0] * xi[1]]]), VEH.xi_box)
+        ub.elementwise_bounds(lambda xi: np.array([[xi[0] * xi[1]]]), VEH.xi_box)
 
 
 def test_switched_ts_form_is_exact_in_every_band():
@@ -72,21 +74,21 @@ def test_switched_ts_form_is_exact_in_every_band():
     assert np.allclose(h.sum(axis=1), 1) and h.min() >= -1e-12
     for v, i, hk in zip(vx, sig, h):
         xi = box[:, 0] + rng.random(2) * (box[:, 1] - box[:, 0])
-        Aj = np.array([iv.lpv_A(s, w, xi, VEH) for s, w in model.z_vertices[i]])
-        np.testing.assert_allclose(np.tensordot(hk, Aj, axes=1), iv.lpv_A(1 / v, v, xi, VEH),
+        Aj = np.array([ub.lpv_A(s, w, xi, VEH) for s, w in model.z_vertices[i]])
+        np.testing.assert_allclose(np.tensordot(hk, Aj, axes=1), ub.lpv_A(1 / v, v, xi, VEH),
                                    rtol=1e-10, atol=1e-10)
 
 
 def test_speed_bands_switching_law():
-    b = iv.SpeedBands((0.1, 6.0, 11.0, 17.5))
+    b = ub.SpeedBands((0.1, 6.0, 11.0, 17.5))
     np.testing.assert_array_equal(b.mode([0.1, 5.9, 6.0, 6.0001, 11.0, 11.2, 17.5]),
                                   [0, 0, 0, 1, 1, 2, 2])
     with pytest.raises(ValueError, match=r"18 m/s at sample 1 is outside"):
         b.mode([5.0, 18.0])
     with pytest.raises(ValueError, match="strictly increasing"):
-        iv.SpeedBands((0.0, 6.0))
+        ub.SpeedBands((0.0, 6.0))
     with pytest.raises(ValueError, match="strictly increasing"):
-        iv.SpeedBands((1.0, 6.0, 6.0))
+        ub.SpeedBands((1.0, 6.0, 6.0))
 
 
 def test_membership_rate_bound_holds_along_speed_trajectories():
@@ -124,7 +126,7 @@ def test_design_is_certified(design):
             s, v = model.z_vertices[i, j]
             for cr in box[0]:
                 for cf in box[1]:
-                    M = iv.lpv_A(s, v, (cr, cf), VEH) - design.L[i, j] @ model.C
+                    M = ub.lpv_A(s, v, (cr, cf), VEH) - design.L[i, j] @ model.C
                     assert M[0, 1] >= 0 and M[1, 0] >= 0
                     assert np.all(np.diag(M) >= -pp.epsilon_shift * (1 + 1e-6))  # (20) diag
     assert design.min_metzler_margin > 0
@@ -165,10 +167,10 @@ def test_infeasible_when_box_allows_oversteer():
     a_max = VEH.max_metzler_uncertainty()
     lr_term = VEH.c_r0 * VEH.l_r * (1 - a_max)
     assert lr_term == pytest.approx(VEH.c_f0 * VEH.l_f * (1 + a_max), rel=1e-12)
-    wide = iv.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0,
+    wide = ub.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0,
                                rel_unc=a_max + 0.02)
     with pytest.raises(InfeasibleDesign, match=r"entry \(2,1\) of A\^- .* < 0") as ei:
-        iv.design_theorem2(iv.SwitchedIntervalModel(wide, pp.bands))
+        iv.design_theorem2(ub.SwitchedIntervalModel(wide, pp.bands))
     assert ei.value.lmi.startswith("Metzler")
 
 
@@ -178,7 +180,7 @@ def test_diagonal_shift_precheck_names_the_entry():
     with pytest.raises(InfeasibleDesign, match=r"entry \(1,1\) of A\^- = -606.7 < -epsilon = -300"):
         pp.design(epsilon_shift=300.0)
     assert a11 == pytest.approx(-606.666, rel=1e-4)
-    pp.design(epsilon_shift=300.0, bands_=iv.SpeedBands((1.0, 6.0, 11.0, 17.5)))  # feasible
+    pp.design(epsilon_shift=300.0, bands_=ub.SpeedBands((1.0, 6.0, 11.0, 17.5)))  # feasible
 
 
 def test_infeasible_lmi_raises():
@@ -204,39 +206,125 @@ def test_dwell_time_bound(design):
 
 
 # ------------------------------------------------------------------ observer ---------------
-def test_implemented_rhs_equals_slides_form_and_kernel(design):
-    rng = np.random.default_rng(5)
-    for _ in range(200):
-        i = int(rng.integers(0, 3))
-        hk = rng.dirichlet(np.ones(4))
-        xh, xl = rng.normal(0, 1, 2), rng.normal(0, 1, 2)
-        y, u = rng.normal(0, 0.3), abs(rng.normal(0, 0.05))
-        fs = iv.slides_rhs(design, i, hk, xh, xl, y, u, u)
-        fi = iv.implemented_rhs(design, i, hk, xh, xl, y, u, u)
-        np.testing.assert_allclose(fi[0], fs[0], rtol=1e-10, atol=1e-9)
-        np.testing.assert_allclose(fi[1], fs[1], rtol=1e-10, atol=1e-9)
-    # one Euler step of the numba kernel equals x + h * implemented_rhs
+def _drive(n, seed=0, v0=2.0, v1=16.0):
+    """Speeds crossing every band, steering and a yaw rate of the LPV model (N,) at DT."""
+    t = np.arange(n) * DT
+    vx = v0 + (v1 - v0) * t / t[-1]
+    u = 0.04 * np.sin(2 * np.pi * 0.7 * t)
+    xi = ub.random_stiffness_trajectory(VEH, n, DT, seed=seed, corr_time=0.3)
+    X = ub.simulate_lpv(VEH, [0.1, -0.02], u, vx, xi, DT)
+    return t, vx, u, X
+
+
+def test_observer_protocol_readable_step_equals_compiled_run(design):
+    """The contract: run_readable (the numpy Euler step of implemented_rhs (11), mode and
+    weights (7) from model.memberships) equals the compiled run, with steering and gyro noise
+    bounds, speeds crossing the bands and clipped outside them. Tolerance 1e-10 absolute on
+    bounds of order 0.1-1 (observed ~1e-15): the readable step blends the vertex matrices
+    with tensordot and the memberships with numpy, the kernel in loops, so each step differs
+    by a few ulps; the width dynamics are stable (A^+ - L C Hurwitz), so they do not grow."""
+    t, vx, u, X = _drive(3000)
+    vx = vx.copy()
+    vx[100:120] = 20.0                                   # above the bands: clipped
+    uu = np.column_stack([vx, u])
+    obs = iv.IntervalObserver(design, DT, ([-0.5, -0.1], [0.5, 0.1]), steer_noise=1e-3,
+                              y_noise=2e-3, clip_speed=True)
+    assert isinstance(obs, Observer) and obs.design.certificate.ok
+    run = obs.run(t, uu, X[:, 1])
+    ref = run_readable(obs, t, uu, X[:, 1])
+    np.testing.assert_allclose(run.lo, ref.lo, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(run.hi, ref.hi, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(run.x, ref.x, rtol=0, atol=1e-10)
+    assert isinstance(run, Trajectory) and run.names == iv.STATE_NAMES
+    assert run.x_lo is run.lo and run.n_clipped == 20 and run.substeps == 1
+    np.testing.assert_array_equal(run.width, run.hi - run.lo)
+    # default x0 = [0, y_0]: the box is centred on the measured yaw rate
+    np.testing.assert_array_equal(run.lo[0], [-0.5, X[0, 1] - 0.1])
+    # the function front end gives the same numbers (with u^+- = delta +- steer_noise)
+    f = iv.run_interval_observer(design, DT, np.clip(vx, 0.1, 17.5), u - 1e-3, u + 1e-3,
+                                 X[:, 1], run.lo[0], run.hi[0], y_noise=2e-3)
+    np.testing.assert_array_equal(f.lo, run.lo)
+    np.testing.assert_array_equal(f.hi, run.hi)
+
+
+def test_observer_is_causal(design):
+    """Changing every sample after k leaves the bounds up to k unchanged, bit for bit."""
+    t, vx, u, X = _drive(2000)
+    obs = iv.IntervalObserver(design, DT, ([-0.5, -0.1], [0.5, 0.1]), steer_noise=1e-3)
+    uu = np.column_stack([vx, u])
+    a = obs.run(t, uu, X[:, 1])
+    k = 900
+    u2, y2 = uu.copy(), X[:, 1].copy()
+    u2[k + 1:, 1] += 0.02
+    u2[k + 1:, 0] = 12.0
+    y2[k + 1:] -= 0.05
+    b = obs.run(t, u2, y2)
+    np.testing.assert_array_equal(a.lo[:k + 1], b.lo[:k + 1])
+    np.testing.assert_array_equal(a.hi[:k + 1], b.hi[:k + 1])
+    assert np.abs(a.hi[k + 2:] - b.hi[k + 2:]).max() > 1e-4
+
+
+def test_implemented_rhs_with_gyro_noise_widens_by_L_vbar(design):
+    """The noise term of (11): with |y - r| <= v_bar each bound moves by |L_h| v_bar."""
     m = design.model
-    v = 8.3
-    sig, h = m.memberships([v])
-    xl0, xh0 = np.array([-0.3, -0.02]), np.array([0.2, 0.05])
-    res = iv.run_interval_observer(design, DT, [v, v], [0.01, 0.01], [0.02, 0.02], [0.01, 0.01],
-                                   xl0, xh0)
-    fh, fl = iv.implemented_rhs(design, int(sig[0]), h[0], xh0, xl0, 0.01, 0.01, 0.02)
-    np.testing.assert_allclose(res.x_hi[1], xh0 + DT * fh, rtol=1e-12)
-    np.testing.assert_allclose(res.x_lo[1], xl0 + DT * fl, rtol=1e-12)
+    sig, h = m.memberships([8.3])
+    xl, xh = np.array([-0.3, -0.02]), np.array([0.2, 0.05])
+    f0 = iv.implemented_rhs(design, int(sig[0]), h[0], xh, xl, 0.01, 0.01, 0.02)
+    f1 = iv.implemented_rhs(design, int(sig[0]), h[0], xh, xl, 0.01, 0.01, 0.02, y_noise=0.003)
+    Lh = np.abs(np.tensordot(h[0], design.L[int(sig[0])][..., 0], axes=1))
+    np.testing.assert_allclose(f1[0] - f0[0], Lh * 0.003, rtol=1e-12)
+    np.testing.assert_allclose(f0[1] - f1[1], Lh * 0.003, rtol=1e-12)
 
 
 def test_width_converges_to_zero_without_uncertainty():
-    exact = iv.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0, 0.0)
+    exact = ub.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0, 0.0)
     d = pp.design(veh=exact)
     t = np.arange(0, 20, DT)
     vx = 3 + 12 * (1 - np.cos(2 * np.pi * t / 20)) / 2
     u = 0.03 * np.sin(2 * np.pi * 0.3 * t)
-    X = iv.simulate_lpv(exact, [0.1, 0.0], u, vx, exact.xi0, DT)
+    X = ub.simulate_lpv(exact, [0.1, 0.0], u, vx, exact.xi0, DT)
     res = iv.run_interval_observer(d, DT, vx, u, u, X[:, 1], [-1, -0.5], [1, 0.5])
     assert np.all(res.x_lo <= X + 1e-12) and np.all(X <= res.x_hi + 1e-12)
     assert res.width[-1].max() < 1e-6 * res.width[0].max()
+
+
+@pytest.mark.parametrize("dt", [0.0, -1e-3, float("nan"), float("inf")])
+def test_sample_period_must_be_positive(design, dt):
+    """dt <= 0 used to integrate backwards in time (widths of 6e18 m/s): refused, named."""
+    v = np.full(10, 8.0)
+    with pytest.raises(ObserverArgumentError, match="dt .sample period. must be finite and > 0"):
+        iv.run_interval_observer(design, dt, v, v * 0, v * 0, v * 0, [0, 0], [1, 1])
+    with pytest.raises(ObserverArgumentError, match="dt .sample period. must be finite"):
+        iv.IntervalObserver(design, dt, ([0, 0], [1, 1]))
+    with pytest.raises(ObserverArgumentError, match="dt .sample period. must be finite"):
+        iv.euler_substeps(design, dt)
+
+
+@pytest.mark.parametrize("eps", [-1.0, 0.0, float("nan"), float("inf")])
+def test_decay_rate_must_be_positive(eps):
+    """A negative decay rate of (19) certified a growing width: refused before any solve."""
+    with pytest.raises(ObserverArgumentError, match="eps_decay .decay rate of .19.. must be"):
+        pp.design(eps_decay=eps)
+
+
+def test_observer_arguments_are_checked(design):
+    t, vx, u, X = _drive(50)
+    uu = np.column_stack([vx, u])
+    with pytest.raises(ObserverArgumentError, match="design must be an IntervalDesign"):
+        iv.IntervalObserver(design.model, DT, ([0, 0], [1, 1]))
+    with pytest.raises(ObserverArgumentError, match="box0 must be two finite"):
+        iv.IntervalObserver(design, DT, ([1, 0], [0, 1]))
+    with pytest.raises(ObserverArgumentError, match="y_noise must be finite and >= 0"):
+        iv.IntervalObserver(design, DT, ([0, 0], [1, 1]), y_noise=-1.0)
+    obs = iv.IntervalObserver(design, DT, ([0, 0], [1, 1]))
+    with pytest.raises(ObserverArgumentError, match=r"u must be \(N, 2\)"):
+        obs.run(t, vx, X[:, 1])
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 1\)"):
+        obs.run(t, uu, X)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 2 finite values"):
+        obs.run(t, uu, X[:, 1], [0.0, np.nan])
+    with pytest.raises(ObserverArgumentError, match="sampled every dt"):
+        obs.run(t * 2, uu, X[:, 1])
 
 
 def test_bad_inputs_raise_clear_errors(design):
@@ -266,11 +354,11 @@ def test_bad_inputs_raise_clear_errors(design):
 def test_random_stiffness_trajectory_in_box_and_seeded():
     box = VEH.xi_box
     for corners in (False, True):
-        a = iv.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=corners)
-        b = iv.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=corners)
+        a = ub.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=corners)
+        b = ub.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=corners)
         np.testing.assert_array_equal(a, b)
         assert np.all(a >= box[:, 0]) and np.all(a <= box[:, 1])
-    c = iv.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=True)
+    c = ub.random_stiffness_trajectory(VEH, 5000, DT, seed=7, corners=True)
     assert set(np.unique(c[:, 0])) <= set(box[0])
 
 
@@ -295,10 +383,10 @@ def _scenario(data, n):
         fr = data.draw(st.tuples(st.floats(0, 1), st.floats(0, 1)), label="xi fraction")
         xi = box[:, 0] + np.array(fr) * (box[:, 1] - box[:, 0])
     elif kind == "random":
-        xi = iv.random_stiffness_trajectory(VEH, n, DT, seed=seed, corr_time=0.3)
+        xi = ub.random_stiffness_trajectory(VEH, n, DT, seed=seed, corr_time=0.3)
     else:
         tc = 0.2 if kind == "corners" else 0.003
-        xi = iv.random_stiffness_trajectory(VEH, n, DT, seed=seed, corr_time=tc, corners=True)
+        xi = ub.random_stiffness_trajectory(VEH, n, DT, seed=seed, corr_time=tc, corners=True)
     return vx, u, xi
 
 
@@ -321,7 +409,7 @@ def test_enclosure_guarantee_property(design, data):
     # the measured steering is u + noise with |noise| <= un; the truth sees u
     noise = un * np.sin(np.arange(n) * 0.37)
     um = u + noise
-    X = iv.simulate_lpv(VEH, x0, u, vx, xi, DT)
+    X = ub.simulate_lpv(VEH, x0, u, vx, xi, DT)
     res = iv.run_interval_observer(design, DT, vx, um - un, um + un, X[:, 1], c - hw, c + hw)
     tol = 1e-9 * (1 + np.abs(X))
     assert np.all(res.x_lo <= X + tol), "lower bound above the state"
@@ -336,7 +424,7 @@ def test_enclosure_with_bounded_yaw_rate_noise(design_single, data):
     vx, u, xi = _scenario(data, n)
     vbar = data.draw(st.floats(0.0, 0.01), label="gyro noise bound")
     seed = data.draw(st.integers(0, 2**31 - 1))
-    X = iv.simulate_lpv(VEH, [0.2, -0.05], u, vx, xi, DT)
+    X = ub.simulate_lpv(VEH, [0.2, -0.05], u, vx, xi, DT)
     y = X[:, 1] + vbar * np.random.default_rng(seed).uniform(-1, 1, n)
     res = iv.run_interval_observer(design_single, DT, vx, u, u, y, [0, -0.1], [0.5, 0.1],
                                    y_noise=vbar)
@@ -348,12 +436,12 @@ def test_non_metzler_gain_breaks_enclosure():
     """Negative control: the same run with L1 > A12 (entry (1,2) of A - L C negative) loses
     the enclosure, so the property tests above can fail. Exact stiffness (no slack from the
     uncertainty) and a state on the lower face of the initial box make it immediate."""
-    exact = iv.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0, 0.0)
+    exact = ub.UncertainBicycle(VEH.m, VEH.I_z, VEH.l_f, VEH.l_r, VEH.c_f0, VEH.c_r0, 0.0)
     good = pp.design(veh=exact)
     t = np.arange(0, 2, DT)
     vx = np.full_like(t, 12.0)
     u = 0.04 * np.sin(2 * np.pi * 0.5 * t)
-    X = iv.simulate_lpv(exact, [0.0, 0.0], u, vx, exact.xi0, DT)
+    X = ub.simulate_lpv(exact, [0.0, 0.0], u, vx, exact.xi0, DT)
     box = ([0.0, -0.1], [1.0, 0.1])
     res = iv.run_interval_observer(good, DT, vx, u, u, X[:, 1], *box)
     assert np.all(res.x_lo <= X + 1e-12) and np.all(X <= res.x_hi + 1e-12)
@@ -372,87 +460,7 @@ def test_continuous_truth_also_enclosed(design):
     t = np.arange(0, 30, DT)
     vx = 1 + 15 * (1 - np.cos(2 * np.pi * t / 30)) / 2
     u = 0.05 * np.sin(2 * np.pi * 0.4 * t) * np.sin(2 * np.pi * 0.05 * t)
-    xi = iv.random_stiffness_trajectory(VEH, len(t), DT, seed=11, corr_time=0.5)
-    X = iv.simulate_lpv(VEH, [0.0, 0.0], u, vx, xi, DT, substeps=10, method="rk4")
+    xi = ub.random_stiffness_trajectory(VEH, len(t), DT, seed=11, corr_time=0.5)
+    X = ub.simulate_lpv(VEH, [0.0, 0.0], u, vx, xi, DT, substeps=10, method="rk4")
     res = iv.run_interval_observer(design, DT, vx, u, u, X[:, 1], [-0.2, -0.1], [0.2, 0.1])
     assert np.all(res.x_lo <= X) and np.all(X <= res.x_hi)
-
-
-def test_interval_metrics():
-    xl = np.zeros((4, 2))
-    xh = np.ones((4, 2))
-    res = iv.IntervalResult(xl, xh, np.zeros(4, int), 1, 0)
-    truth = np.array([[0.5, 0.5], [2.0, 0.5], [0.5, -1.0], [0.5, 0.5]])
-    m = iv.interval_metrics(res, truth)
-    assert m["enclosure_vy"] == 0.75 and m["enclosure_r"] == 0.75
-    assert m["max_excursion_vy"] == 1.0 and m["width_mean_r"] == 1.0
-    m2 = iv.interval_metrics(res, truth, mask=np.array([True, False, False, True]))
-    assert m2["enclosure_vy"] == 1.0
-
-
-# ------------------------------------------------------------------ printed-solution checks -
-def test_min_epsilon_shift_known_answer():
-    """With L = 0 the (20) shift is the largest |diagonal| of A^- over the box corners:
-    entry (1,1) or (2,2) at the vertex with 1/v_x = 1/v_min and the largest stiffness."""
-    m = pp.model()
-    eps = iv.min_epsilon_shift(m, np.zeros((3, 4, 2)))
-    e = np.asarray(pp.bands.edges)
-    cr, cf = VEH.xi_box[0, 1], VEH.xi_box[1, 1]
-    want = [max((cf + cr) / VEH.m, (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z) / v
-            for v in e[:-1]]
-    np.testing.assert_allclose(eps, want, rtol=1e-12)
-    # a gain L2 = g at every vertex adds g to the (2,2) entry
-    L = np.zeros((3, 4, 2))
-    L[..., 1] = 500.0
-    d22 = (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z / e[:-1] + 500.0
-    np.testing.assert_allclose(iv.min_epsilon_shift(m, L), np.maximum(want, d22), rtol=1e-12)
-    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
-        iv.min_epsilon_shift(m, np.zeros((2, 4, 2)))
-
-
-def test_certify_solution_of_a_design_reaches_its_gamma(design):
-    """A design's own P, L (not rescaled: p_min = its own min P per mode) are feasible for
-    the fixed-P problem with the same strictness margin (its M works) and optimal, so the
-    certified gamma_i equals the design's; rescaled to min P = 1 they stay certified."""
-    pm = design.P.min(axis=(1, 2))
-    c = iv.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
-                            pp.accel_max, p_min=pm)
-    assert c.solution.certificate.ok and c.lmi_margin >= 0.99e-2
-    np.testing.assert_allclose(c.scale, 1.0)
-    # same optimum: fixing P, W at the optimal values leaves gamma_i where the design put it
-    # (to the interior-point solver's accuracy; observed differences ~1e-5 relative)
-    np.testing.assert_allclose(c.gammas, design.gammas, rtol=1e-4)
-    c = iv.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
-                            pp.accel_max)
-    np.testing.assert_allclose(c.scale, 1.0 / pm)
-    assert c.solution.certificate.ok
-    np.testing.assert_allclose(c.metzler_margins, design.metzler_margins)
-    assert np.all(c.min_epsilon <= pp.epsilon_shift * (1 + 1e-6))
-    with pytest.raises(ValueError, match="P_diag must be positive"):
-        iv.certify_solution(design.model, -design.P, design.L[..., 0])
-    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
-        iv.certify_solution(design.model, design.P, design.L)
-
-
-def test_settling_time_known_answers():
-    t = np.arange(0.0, 10.0, 0.001)
-    w_ref = np.full_like(t, 0.3)
-    w = w_ref + np.exp(-t / 0.5)                 # 2 % at t = 0.5 ln 50
-    assert iv.settling_time(t, w, w_ref) == pytest.approx(0.5 * np.log(50), abs=2e-3)
-    assert iv.settling_time(t, w, w_ref, frac=0.1) == pytest.approx(0.5 * np.log(10), abs=2e-3)
-    # a late bump above the threshold moves the settling time behind it
-    w2 = w.copy()
-    w2[(t > 4.0) & (t < 4.5)] += 0.05
-    assert iv.settling_time(t, w2, w_ref) == pytest.approx(4.5, abs=2e-3)
-    # never settles within the record (constant or growing effect)
-    assert iv.settling_time(t, w_ref + 1.0, w_ref) == float("inf")
-    assert iv.settling_time(t, w_ref + 1 + t, w_ref) == float("inf")
-    # gone after the first step / no initial-box effect at all
-    w3 = w_ref.copy()
-    w3[0] += 1.0
-    assert iv.settling_time(t, w3, w_ref) == pytest.approx(0.001)
-    assert iv.settling_time(t, w_ref, w_ref) == 0.0
-    with pytest.raises(ValueError, match="equal length"):
-        iv.settling_time(t, w[:-1], w_ref)
-    with pytest.raises(ValueError, match=r"frac must be in \(0, 1\)"):
-        iv.settling_time(t, w, w_ref, frac=1.5)

@@ -5,9 +5,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 from vehicle_observers_papers.ifqir_2017 import constants as pp
+from vehicle_observers_papers.ifqir_2017 import evaluation as ev
+from vehicle_observers_papers.ifqir_2017 import printed_solution as ps
 from vehicle_observers_papers.yacine_2015 import constants as yc
+
+VEH = pp.vehicle
+
+
+@pytest.fixture(scope="module")
+def design():
+    return pp.design()
 
 
 def test_printed_values_transcribed():
@@ -43,7 +53,7 @@ def test_printed_gains_are_metzler_for_this_vehicle_with_vx_as_fast_index():
     """The printed L1 of modes 2-3 satisfy L1^j <= A^-_12 at vertex j of our reconstruction
     (bands 6-11, 11-16.6 m/s, vertex order with v_x as the fast index); the other ordering
     violates it -- support for the documented ordering."""
-    m = iv.SwitchedIntervalModel(pp.vehicle, iv.SpeedBands((3.0, 6.0, 11.0, 16.6)))
+    m = ub.SwitchedIntervalModel(pp.vehicle, ub.SpeedBands((3.0, 6.0, 11.0, 16.6)))
     A12 = m.A_lo[1:, :, 0, 1]
     L1 = pp.L_printed[1:, :, 0]
     assert np.all(L1 <= A12)
@@ -90,5 +100,102 @@ def test_vertex_polarity_of_inv_vx_is_the_one_closer_to_the_printed_gains():
     for mod in (m, pp.model(inv_vx_upper_first=True)):
         sig, h = mod.memberships(v)
         A = np.einsum("nj,njab->nab", h, mod.A_nom[sig])
-        want = np.array([iv.lpv_A(1 / x, x, pp.vehicle.xi0, pp.vehicle) for x in v])
+        want = np.array([ub.lpv_A(1 / x, x, pp.vehicle.xi0, pp.vehicle) for x in v])
         np.testing.assert_allclose(A, want, rtol=1e-12, atol=1e-9)
+
+
+# ------------------------------------------------------------------ observer (11) as printed --
+def test_implemented_rhs_equals_slides_form(design):
+    """The library's observer (11) (implemented_rhs: M^+ pos - M^- neg with the exact
+    interval product of B u) equals the slides' printed right-hand sides for u >= 0."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        i = int(rng.integers(0, 3))
+        hk = rng.dirichlet(np.ones(4))
+        xh, xl = rng.normal(0, 1, 2), rng.normal(0, 1, 2)
+        y, u = rng.normal(0, 0.3), abs(rng.normal(0, 0.05))
+        fs = ps.slides_rhs(design, i, hk, xh, xl, y, u, u)
+        fi = iv.implemented_rhs(design, i, hk, xh, xl, y, u, u)
+        np.testing.assert_allclose(fi[0], fs[0], rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(fi[1], fs[1], rtol=1e-10, atol=1e-9)
+
+
+def test_interval_metrics():
+    xl = np.zeros((4, 2))
+    xh = np.ones((4, 2))
+    res = iv.IntervalRun(np.arange(4.0), (xl + xh) / 2, iv.STATE_NAMES, xl, xh, sigma=np.zeros(4, int))
+    truth = np.array([[0.5, 0.5], [2.0, 0.5], [0.5, -1.0], [0.5, 0.5]])
+    m = ev.interval_metrics(res, truth)
+    assert m["enclosure_vy"] == 0.75 and m["enclosure_r"] == 0.75
+    assert m["max_excursion_vy"] == 1.0 and m["width_mean_r"] == 1.0
+    m2 = ev.interval_metrics(res, truth, mask=np.array([True, False, False, True]))
+    assert m2["enclosure_vy"] == 1.0
+
+
+
+# ------------------------------------------------------------------ printed-solution checks --
+def test_min_epsilon_shift_known_answer():
+    """With L = 0 the (20) shift is the largest |diagonal| of A^- over the box corners:
+    entry (1,1) or (2,2) at the vertex with 1/v_x = 1/v_min and the largest stiffness."""
+    m = pp.model()
+    eps = ps.min_epsilon_shift(m, np.zeros((3, 4, 2)))
+    e = np.asarray(pp.bands.edges)
+    cr, cf = VEH.xi_box[0, 1], VEH.xi_box[1, 1]
+    want = [max((cf + cr) / VEH.m, (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z) / v
+            for v in e[:-1]]
+    np.testing.assert_allclose(eps, want, rtol=1e-12)
+    # a gain L2 = g at every vertex adds g to the (2,2) entry
+    L = np.zeros((3, 4, 2))
+    L[..., 1] = 500.0
+    d22 = (cr * VEH.l_r**2 + cf * VEH.l_f**2) / VEH.I_z / e[:-1] + 500.0
+    np.testing.assert_allclose(ps.min_epsilon_shift(m, L), np.maximum(want, d22), rtol=1e-12)
+    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
+        ps.min_epsilon_shift(m, np.zeros((2, 4, 2)))
+
+
+def test_certify_solution_of_a_design_reaches_its_gamma(design):
+    """A design's own P, L (not rescaled: p_min = its own min P per mode) are feasible for
+    the fixed-P problem with the same strictness margin (its M works) and optimal, so the
+    certified gamma_i equals the design's; rescaled to min P = 1 they stay certified."""
+    pm = design.P.min(axis=(1, 2))
+    c = ps.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
+                            pp.accel_max, p_min=pm)
+    assert c.solution.certificate.ok and c.lmi_margin >= 0.99e-2
+    np.testing.assert_allclose(c.scale, 1.0)
+    # same optimum: fixing P, W at the optimal values leaves gamma_i where the design put it
+    # (to the interior-point solver's accuracy; observed differences ~1e-5 relative)
+    np.testing.assert_allclose(c.gammas, design.gammas, rtol=1e-4)
+    c = ps.certify_solution(design.model, design.P, design.L[..., 0], pp.eps_decay,
+                            pp.accel_max)
+    np.testing.assert_allclose(c.scale, 1.0 / pm)
+    assert c.solution.certificate.ok
+    np.testing.assert_allclose(c.metzler_margins, design.metzler_margins)
+    assert np.all(c.min_epsilon <= pp.epsilon_shift * (1 + 1e-6))
+    with pytest.raises(ValueError, match="P_diag must be positive"):
+        ps.certify_solution(design.model, -design.P, design.L[..., 0])
+    with pytest.raises(ValueError, match=r"L must be \(3, 4, 2\)"):
+        ps.certify_solution(design.model, design.P, design.L)
+
+
+def test_settling_time_known_answers():
+    t = np.arange(0.0, 10.0, 0.001)
+    w_ref = np.full_like(t, 0.3)
+    w = w_ref + np.exp(-t / 0.5)                 # 2 % at t = 0.5 ln 50
+    assert ev.settling_time(t, w, w_ref) == pytest.approx(0.5 * np.log(50), abs=2e-3)
+    assert ev.settling_time(t, w, w_ref, frac=0.1) == pytest.approx(0.5 * np.log(10), abs=2e-3)
+    # a late bump above the threshold moves the settling time behind it
+    w2 = w.copy()
+    w2[(t > 4.0) & (t < 4.5)] += 0.05
+    assert ev.settling_time(t, w2, w_ref) == pytest.approx(4.5, abs=2e-3)
+    # never settles within the record (constant or growing effect)
+    assert ev.settling_time(t, w_ref + 1.0, w_ref) == float("inf")
+    assert ev.settling_time(t, w_ref + 1 + t, w_ref) == float("inf")
+    # gone after the first step / no initial-box effect at all
+    w3 = w_ref.copy()
+    w3[0] += 1.0
+    assert ev.settling_time(t, w3, w_ref) == pytest.approx(0.001)
+    assert ev.settling_time(t, w_ref, w_ref) == 0.0
+    with pytest.raises(ValueError, match="equal length"):
+        ev.settling_time(t, w[:-1], w_ref)
+    with pytest.raises(ValueError, match=r"frac must be in \(0, 1\)"):
+        ev.settling_time(t, w, w_ref, frac=1.5)

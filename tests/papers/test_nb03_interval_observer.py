@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
+from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 from vehicle_observers_papers.ifqir_2017 import constants as IF
 from vehicle_observers_papers.ifqir_2017 import interval_observer as ist
@@ -223,7 +224,7 @@ def test_lpv_experiment_truth_and_guarantee(lpv, log, ds):
     X, dt = lpv["X"], log.dt
     for k in (0, 1234, len(X) - 2):
         v, xi = lpv["vx"][k], lpv["xi"][k]
-        dx = iv.lpv_A(1 / v, v, xi, veh) @ X[k] + iv.lpv_B(xi, veh)[:, 0] * lpv["delta"][k]
+        dx = ub.lpv_A(1 / v, v, xi, veh) @ X[k] + ub.lpv_B(xi, veh)[:, 0] * lpv["delta"][k]
         np.testing.assert_allclose(X[k + 1], X[k] + dt * dx, rtol=1e-9, atol=1e-12)
     v = _values(lpv)
     assert v["lpv_enclosure_vy"] == 1.0 and v["lpv_enclosure_r"] == 1.0 and lpv["enclosure"] == 1.0
@@ -263,8 +264,8 @@ def test_nonlinear_experiment(nl, log, ds):
 
 def test_enclosure_by_band_known_answer():
     t = np.arange(6.0)
-    res = iv.IntervalResult(x_lo=np.zeros((6, 2)), x_hi=np.ones((6, 2)), sigma=np.zeros(6, int),
-                            substeps=1, n_clipped=0)
+    res = iv.IntervalRun(t, np.full((6, 2), 0.5), iv.STATE_NAMES, np.zeros((6, 2)),
+                         np.ones((6, 2)), sigma=np.zeros(6, int))
     ref = np.array([[0.5, 0.5], [2.0, 0.5], [0.5, 0.5], [0.5, -1.0], [0.5, 0.5], [3.0, 0.5]])
     ay = np.array([1.0, -2.0, 4.0, 5.0, 7.0, -8.0])
     rows = ist.enclosure_by_band(res, ref, t, ay, t_skip=0.0)

@@ -1,9 +1,14 @@
 """Printed constants of Yacine et al. (IEEE TCST 23(2), 2015) and the chosen (not printed)
-Pacejka coefficients, checked against the paper's numbers and its sector bounds."""
+Pacejka coefficients, checked against the paper's numbers and its sector bounds; Theorem 1's
+bound (34) against the error of the library's observer on a TS-exact truth."""
 
 import numpy as np
 import pytest
+from vehicle_observers.data import scenarios
+from vehicle_observers.models import lateral
+from vehicle_observers.observers import ts_premise as to
 from vehicle_observers_papers.yacine_2015 import constants as Y
+from vehicle_observers_papers.yacine_2015 import theorem1 as T1
 
 
 def test_table_I_constants():
@@ -64,3 +69,57 @@ def test_shipped_vehicle_file_is_the_papers_car():
     from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
     assert load_vehicle("yacine2015").params == yacine2015.params
+
+
+# ------------------------------------------------------------------ Theorem 1, bound (34) --
+@pytest.fixture(scope="module")
+def design():
+    return to.design_theorem1(Y.ts_model())
+
+
+@pytest.fixture(scope="module")
+def quick_clean():
+    return scenarios.emulated_satory(seed=0, quick=True, noise_scale=0.0)
+
+
+@pytest.fixture(scope="module")
+def ts_exact(quick_clean):
+    """Noise-free truth of the model the TS form represents exactly ((13) with slip (4)),
+    replayed from the curve entry (t = 12 s) so the differentiators start mid-transient."""
+    log = scenarios.replay(quick_clean.segment(12.0, 40.0), exact_slip=False)
+    log.t = log.t - log.t[0]
+    return log
+
+
+def test_bound_34_holds_on_ts_exact_truth(design, ts_exact):
+    """Theory check of Theorem 1: noise-free run whose truth is (13)+(4) (exactly the TS form
+    inside the sector), observer started 2.9 away; the error norm stays below the bound at
+    every sample (ISS form (40) with the measured delta(t) of (30), and the paper's two-branch
+    form with T = the differentiator's convergence time)."""
+    log = ts_exact
+    pe = to.estimate_premises(log)
+    x0 = np.array([0.5, 0.1, 2.0, -2.0])
+    run = to.run_observer(log, design, pe, x0=x0)
+    xt = lateral.to_transformed(np.column_stack([log.vy, log.yaw_rate, log.Ff, log.Fr]), Y.params)
+    zt = to.ts_premises(log.vy, log.yaw_rate, log.delta, log.vx)
+    ts = design.ts
+    assert np.all((zt >= ts.zmin) & (zt <= ts.zmax))        # truth inside the sector
+    full, dl = T1.premise_mismatch(ts, xt, log.delta, zt, run.z)
+    assert np.abs(full[:, :2]).max() < 1e-12                # only Gamma-rows, as in (29)
+    en = np.linalg.norm(xt - run.x, axis=1)
+    dn = np.linalg.norm(dl, axis=1)
+    T = T1.convergence_time(log.t, pe.vy - log.vy, band=1e-3)
+    b = T1.bound_34(log.t, en[0], dn, T, design)
+    assert np.all(en < b["iss"]) and np.all(en < b["paper"])
+    assert en[0] > 2.5 and en[log.t > 5].max() < 1e-3        # and the error did converge
+
+
+def test_convergence_time_modes():
+    t = np.arange(0.0, 10.0, 0.01)
+    err = np.where(t < 2.0, 1.0, 0.0)
+    err[(t > 6.0) & (t < 6.5)] = 1.0            # a later excursion (re-convergence)
+    assert T1.convergence_time(t, err, 0.5, mode="first") == pytest.approx(2.0)
+    assert T1.convergence_time(t, err, 0.5, mode="last") == pytest.approx(6.5)
+    assert np.isnan(T1.convergence_time(t, np.ones_like(t), 0.5, mode="first"))
+    with pytest.raises(ValueError, match="mode"):
+        T1.convergence_time(t, err, 0.5, mode="mid")

@@ -24,28 +24,42 @@ covariance is re-symmetrised and eigen-floored after every predict and update
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.core.protocol import Trajectory
+
 Array = np.ndarray
 
 
-@dataclass
-class FilterRun:
-    """Posterior means ``x`` (N, n), covariance diagonals ``P_diag`` (N, n), wall time of the
-    loop ``seconds``; ``info``: filter-specific details (e.g. ``spd_repairs``)."""
+@dataclass(frozen=True, eq=False)
+class FilterRun(Trajectory):
+    """A filterpy run: the :class:`~vehicle_observers.core.protocol.Trajectory` of the
+    posterior means ``x`` (N, n) at ``t = k dt`` [s] (state names ``names`` given to the run,
+    default ``x0 .. x{n-1}``), plus ``P_diag`` (N, n) the covariance diagonals; ``seconds``
+    the wall time of the loop, ``info`` filter-specific details (e.g. ``spd_repairs``).
+    ``name`` is ``estimator``."""
 
-    name: str
-    x: Array
-    P_diag: Array
-    seconds: float
-    info: dict = field(default_factory=dict)
+    P_diag: Array | None = None
 
     @property
-    def us_per_step(self) -> float:
-        return 1e6 * self.seconds / max(len(self.x), 1)
+    def name(self) -> str:
+        return self.estimator
+
+
+def _names(names, n) -> tuple[str, ...]:
+    names = tuple(f"x{i}" for i in range(n)) if names is None else tuple(names)
+    if len(names) != n:
+        raise ObserverArgumentError(f"names must give the {n} states, got {names}")
+    return names
+
+
+def _result(name, dt, X, Pd, seconds, names, info=None) -> FilterRun:
+    return FilterRun(dt * np.arange(len(X)), X, names, seconds=seconds, estimator=name,
+                     info=dict(info or {}), P_diag=Pd)
 
 
 def rk4_step(f: Callable, x: Array, u: Array, dt: float) -> Array:
@@ -71,46 +85,54 @@ def numerical_jacobian(fun: Callable, x: Array, rel: float = 1e-6) -> Array:
     return J
 
 
-def _check(z, u, x0, P0, Q, R):
+def _check(z, u, x0, P0, Q, R, dt):
+    """Shapes and values of the run arguments (ObserverArgumentError naming the argument)."""
+    if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0):
+        raise ObserverArgumentError(f"dt (sample period) must be finite and > 0 s, got {dt!r}")
     z = np.asarray(z, dtype=float)
     if z.ndim == 1:  # one measurement channel: (N,) -> (N, 1)
         z = z[:, None]
     if z.ndim != 2:
-        raise ValueError(f"z must be (N, p) measurements (or (N,) for one channel), got {z.shape}")
+        raise ObserverArgumentError(f"z must be (N, p) measurements (or (N,) for one channel), got {z.shape}")
     u = np.asarray(u, dtype=float)
     if u.ndim == 1:
         u = u[:, None]
     N = len(z)
     if len(u) != N:
-        raise ValueError(f"u has {len(u)} rows but z has {N} (one input row per measurement)")
+        raise ObserverArgumentError(f"u has {len(u)} rows but z has {N} (one input row per measurement)")
     x0 = np.asarray(x0, dtype=float).ravel()
+    if not np.all(np.isfinite(x0)):
+        raise ObserverArgumentError(f"x0 must be finite, got {x0}")
     n, p = x0.size, z.shape[1]
     for name, M, k in (("P0", P0, n), ("Q", Q, n), ("R", R, p)):
         M = np.asarray(M, dtype=float)
         if M.shape != (k, k):
-            raise ValueError(f"{name} must be ({k}, {k}), got {M.shape}")
+            raise ObserverArgumentError(f"{name} must be ({k}, {k}), got {M.shape}")
         scale = max(float(np.abs(M).max()), np.finfo(float).tiny)
         if np.abs(M - M.T).max() > 1e-12 * scale:
-            raise ValueError(f"{name} must be symmetric (max |{name} - {name}^T| = "
-                             f"{np.abs(M - M.T).max():.3g})")
+            raise ObserverArgumentError(f"{name} must be symmetric (max |{name} - {name}^T| = "
+                                        f"{np.abs(M - M.T).max():.3g})")
         lam = float(np.linalg.eigvalsh(M).min())
         if lam < -1e-12 * scale:
-            raise ValueError(f"{name} must be positive semi-definite (smallest eigenvalue "
-                             f"{lam:.3g})")
+            raise ObserverArgumentError(f"{name} must be positive semi-definite (smallest eigenvalue "
+                                        f"{lam:.3g})")
     return z, u, x0, n, p
 
 
 def run_ekf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, jac: Callable | None = None,
-            hjac: Callable | None = None, name: str = "EKF (filterpy)") -> FilterRun:
+            hjac: Callable | None = None, name: str = "EKF (filterpy)",
+            names=None) -> FilterRun:
     """filterpy ``ExtendedKalmanFilter`` on ``x' = f(x, u)``, ``y = h(x, u)``.
 
     z (N, p) measurements (NaN row: no update), u (N, m) inputs, dt [s] sample period,
     x0 (n,), P0 (n, n), Q (n, n) continuous process-noise intensity, R (p, p).
     ``jac(x, u, dt) -> (x_next, F)`` and ``hjac(x, u) -> H`` override the numerical ones.
+    ``names``: the state names of the returned :class:`FilterRun` (default ``x0 ..``).
     """
     from filterpy.kalman import ExtendedKalmanFilter
 
-    z, u, x0, n, p = _check(z, u, x0, P0, Q, R)
+    z, u, x0, n, p = _check(z, u, x0, P0, Q, R, dt)
+    names = _names(names, n)
     kf = ExtendedKalmanFilter(dim_x=n, dim_z=p)
     kf.x = x0.copy()
     kf.P = np.array(P0, dtype=float)
@@ -137,11 +159,12 @@ def run_ekf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, jac: Cal
             kf.F = F
             kf.P = F @ kf.P @ F.T + Qd
             kf.x = xn
-    return FilterRun(name, X, Pd, time.perf_counter() - t0)
+    return _result(name, dt, X, Pd, time.perf_counter() - t0, names)
 
 
 def run_ukf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, alpha: float = 0.1,
-            beta: float = 2.0, kappa: float = 0.0, name: str = "UKF (filterpy)") -> FilterRun:
+            beta: float = 2.0, kappa: float = 0.0, name: str = "UKF (filterpy)",
+            names=None) -> FilterRun:
     """filterpy ``UnscentedKalmanFilter`` (Merwe points ``alpha, beta, kappa``) on the same
     RK4-discretised model; arguments as :func:`run_ekf`. ``info['spd_repairs']`` counts the
     covariance repairs (:func:`.baselines.kalman.nearest_spd`)."""
@@ -149,7 +172,8 @@ def run_ukf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, alpha: f
 
     from vehicle_observers.baselines.kalman import nearest_spd
 
-    z, u, x0, n, p = _check(z, u, x0, P0, Q, R)
+    z, u, x0, n, p = _check(z, u, x0, P0, Q, R, dt)
+    names = _names(names, n)
     cur = {"u": u[0]}
     pts = MerweScaledSigmaPoints(n, alpha=alpha, beta=beta, kappa=kappa)
     kf = UnscentedKalmanFilter(dim_x=n, dim_z=p, dt=dt, points=pts,
@@ -180,4 +204,5 @@ def run_ukf(f: Callable, h: Callable, z, u, dt: float, x0, P0, Q, R, *, alpha: f
             kf.predict(dt)
             kf.P, rep = nearest_spd(kf.P)
             repairs += rep
-    return FilterRun(name, X, Pd, time.perf_counter() - t0, {"spd_repairs": int(repairs)})
+    return _result(name, dt, X, Pd, time.perf_counter() - t0, names,
+                   {"spd_repairs": int(repairs)})

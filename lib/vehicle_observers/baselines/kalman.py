@@ -32,9 +32,13 @@ Noise tuning (:func:`tune`): maximum likelihood of the innovations of the *measu
 (yaw rate and, if present, a_y) over ``log(q_vy, q_r, q_b, R_r, R_ay)``, Nelder-Mead from a
 sensor-spec start. The reference ``v_y`` is never read. The same call tunes any car's log.
 
-Implementations:
+Implementations (results: :class:`KalmanRun`, a
+:class:`~vehicle_observers.core.protocol.Trajectory`):
 
-- :func:`ekf` numba EKF (the fast one used by the CLI and the benchmark),
+- :class:`LateralEKF` / :class:`LateralUKF`: the EKF and the UKF as observers of
+  :mod:`vehicle_observers.core.protocol` (readable numpy ``step``, ``run`` the numba kernel /
+  filterpy), built from a :class:`KalmanDesign` (car, noise tuning; no LMI certificate);
+- :func:`ekf` numba EKF on a drive log (the fast one used by the CLI and the benchmark),
 - :func:`ekf_filterpy` the same filter with ``filterpy.kalman.ExtendedKalmanFilter`` (reference
   implementation and speed baseline; equal to :func:`ekf` to round-off, see the tests),
 - :func:`ukf_filterpy` ``filterpy.kalman.UnscentedKalmanFilter`` (Merwe sigma points) with the
@@ -50,79 +54,88 @@ import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 
 import numpy as np
 from numba import njit
 
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.core.protocol import ObserverBase, Trajectory
 from vehicle_observers.data.identification import white_noise_std
 from vehicle_observers.data.logs import DriveLog, despike
-from vehicle_observers.models.lateral import LateralParams
-from vehicle_observers.models.vehicle import KalmanTuning
+from vehicle_observers.models.lateral import (
+    A_F,
+    A_R,
+    I_Z,
+    TF_B,
+    TF_C,
+    TF_D,
+    TF_E,
+    TR_B,
+    TR_C,
+    TR_D,
+    TR_E,
+    LateralParams,
+    M,
+)
+from vehicle_observers.models.tires import magic_formula_slope
+from vehicle_observers.models.vehicle import Q_B, Q_R, Q_VY, R_AY, R_R, KalmanTuning
 
 NX = 3
-STATE_NAMES = ("vy", "r", "b_ay")
+#: the filter state ``[v_y, r, b_ay]`` in drive-log schema names
+STATE_NAMES = ("vy_mps", "yaw_rate_radps", "ay_bias_mps2")
+#: index of each state in ``x`` (and row / column of ``P``)
+X_VY, X_R, X_B = range(3)
 
 
-# ------------------------------------------------------------------ configuration --------
-@dataclass
-class KalmanResult:
-    """Estimates along a log. X (N, 3) posterior ``[v_y, r, b_ay]``, P (N, 3, 3); Ff/Fr (N,)
-    axle forces [N] from the tyre model at the estimated slip angles; nll the negative
-    log-likelihood of the innovations (``nan`` for smoothers); seconds the wall time of the
-    run (compiled code, excluding compilation)."""
+# ------------------------------------------------------------------ result ---------------
+@dataclass(frozen=True, eq=False)
+class KalmanRun(Trajectory):
+    """A Kalman run: the :class:`~vehicle_observers.core.protocol.Trajectory` of the posterior
+    ``x`` (N, 3) ``[v_y, r, b_ay]`` (:data:`STATE_NAMES`), plus ``P`` (N, 3, 3) its covariance,
+    ``Ff``/``Fr`` (N,) axle forces [N] from the tyre model at the estimated slip angles and
+    ``nll`` the negative log-likelihood of the innovations (``nan`` for smoothers and the
+    filterpy filters). ``seconds``: wall time of the loop (compiled code, compilation
+    excluded); ``causal`` False for the RTS smoother. ``X``, ``vy``, ``r`` are views of ``x``;
+    ``name`` is ``estimator``."""
 
-    name: str
-    t: np.ndarray
-    X: np.ndarray
-    P: np.ndarray
-    Ff: np.ndarray
-    Fr: np.ndarray
+    P: np.ndarray | None = None
+    Ff: np.ndarray | None = None
+    Fr: np.ndarray | None = None
     nll: float = float("nan")
-    seconds: float = float("nan")
-    causal: bool = True
-    info: dict = field(default_factory=dict)
 
     @property
-    def vy(self):
-        return self.X[:, 0]
+    def name(self) -> str:
+        return self.estimator
 
     @property
-    def r(self):
-        return self.X[:, 1]
+    def X(self) -> np.ndarray:
+        return self.x
 
     @property
-    def us_per_step(self) -> float:
-        return 1e6 * self.seconds / max(len(self.t), 1)
+    def vy(self) -> np.ndarray:
+        return self.x[:, X_VY]
+
+    @property
+    def r(self) -> np.ndarray:
+        return self.x[:, X_R]
+
+
+def _run(name, t, X, P, Ff, Fr, nll, seconds, causal, info) -> KalmanRun:
+    return KalmanRun(t, X, STATE_NAMES, seconds=seconds, causal=causal, estimator=name,
+                     info=info, P=P, Ff=Ff, Fr=Fr, nll=float(nll))
 
 
 # ------------------------------------------------------------------ model (numba) --------
 @njit(cache=True)
-def _tyre(alpha, B, C, D, E):
-    """Force [N] and slope dF/dalpha [N/rad] of a Pacejka (C > 0) or linear (C = 0) tyre."""
-    if C == 0.0:
-        return B * alpha, B
-    Ba = B * alpha
-    if E == 0.0:             # the same numbers without the curvature term's arctan
-        phi = Ba
-        dphi = B
-    else:
-        phi = B * (1.0 - E) * alpha + E * np.arctan(Ba)
-        dphi = B * (1.0 - E) + E * B / (1.0 + Ba * Ba)
-    ang = C * np.arctan(phi)
-    F = D * np.sin(ang)
-    dF = D * np.cos(ang) * C / (1.0 + phi * phi) * dphi
-    return F, dF
-
-
-@njit(cache=True)
 def _rhs(x, delta, vx, P, f, A):
     """f(x) and its Jacobian A (3x3) of the model above. P: LateralParams.as_array()."""
-    m, Iz, af, ar = P[0], P[1], P[2], P[3]
-    vy, r = x[0], x[1]
-    a_f = delta - (vy + af * r) / vx
+    m, Iz, af, ar = P[M], P[I_Z], P[A_F], P[A_R]
+    vy, r = x[X_VY], x[X_R]
+    a_f = delta - (vy + af * r) / vx                                   # slip (4)
     a_r = -(vy - ar * r) / vx
-    Ff, dFf = _tyre(a_f, P[7], P[8], P[9], P[10])
-    Fr, dFr = _tyre(a_r, P[11], P[12], P[13], P[14])
+    Ff, dFf = magic_formula_slope(a_f, P[TF_B], P[TF_C], P[TF_D], P[TF_E])   # tyres (2)/(7)
+    Fr, dFr = magic_formula_slope(a_r, P[TR_B], P[TR_C], P[TR_D], P[TR_E])
     f[0] = (Ff + Fr) / m - vx * r
     f[1] = (af * Ff - ar * Fr) / Iz
     f[2] = 0.0
@@ -143,18 +156,18 @@ def _rhs(x, delta, vx, P, f, A):
 @njit(cache=True)
 def _meas(x, delta, vx, P, use_ay, y, H):
     """h(x) = [r, (F_f+F_r)/m + b] and its Jacobian H (2x3)."""
-    m, af, ar = P[0], P[2], P[3]
-    vy, r = x[0], x[1]
+    m, af, ar = P[M], P[A_F], P[A_R]
+    vy, r = x[X_VY], x[X_R]
     a_f = delta - (vy + af * r) / vx
     a_r = -(vy - ar * r) / vx
-    Ff, dFf = _tyre(a_f, P[7], P[8], P[9], P[10])
-    Fr, dFr = _tyre(a_r, P[11], P[12], P[13], P[14])
+    Ff, dFf = magic_formula_slope(a_f, P[TF_B], P[TF_C], P[TF_D], P[TF_E])
+    Fr, dFr = magic_formula_slope(a_r, P[TR_B], P[TR_C], P[TR_D], P[TR_E])
     y[0] = r
     H[0, 0] = 0.0
     H[0, 1] = 1.0
     H[0, 2] = 0.0
     if use_ay:
-        y[1] = (Ff + Fr) / m + x[2]
+        y[1] = (Ff + Fr) / m + x[X_B]
         H[1, 0] = (-dFf / vx - dFr / vx) / m
         H[1, 1] = (-dFf * af / vx + dFr * ar / vx) / m
         H[1, 2] = 1.0
@@ -239,8 +252,8 @@ def _f2(vy, r, delta, vx, m, Iz, af, ar, Bf, Cf, Df, Ef, Br, Cr, Dr, Er):
     """(f_vy, f_r) of the model and its 2x2 Jacobian (a00, a01, a10, a11); b_ay is inert."""
     a_f = delta - (vy + af * r) / vx
     a_r = -(vy - ar * r) / vx
-    Ff, dFf = _tyre(a_f, Bf, Cf, Df, Ef)
-    Fr, dFr = _tyre(a_r, Br, Cr, Dr, Er)
+    Ff, dFf = magic_formula_slope(a_f, Bf, Cf, Df, Ef)
+    Fr, dFr = magic_formula_slope(a_r, Br, Cr, Dr, Er)
     f0 = (Ff + Fr) / m - vx * r
     f1 = (af * Ff - ar * Fr) / Iz
     dFf_vy, dFf_r = -dFf / vx, -dFf * af / vx
@@ -263,14 +276,15 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
     Xp = np.empty((N if store else 1, 3))
     Pp = np.empty((N if store else 1, 3, 3))
     Fs = np.empty((N if store else 1, 3, 3))
-    m, Iz, af, ar = P[0], P[1], P[2], P[3]
-    Bf, Cf, Df, Ef, Br, Cr, Dr, Er = P[7], P[8], P[9], P[10], P[11], P[12], P[13], P[14]
-    q0, q1, q2 = theta[0], theta[1], theta[2]
+    m, Iz, af, ar = P[M], P[I_Z], P[A_F], P[A_R]
+    Bf, Cf, Df, Ef = P[TF_B], P[TF_C], P[TF_D], P[TF_E]
+    Br, Cr, Dr, Er = P[TR_B], P[TR_C], P[TR_D], P[TR_E]
+    q0, q1, q2 = theta[Q_VY], theta[Q_R], theta[Q_B]
     if not use_ay:
         q2 = 0.0
-    Rr, Ray = theta[3], theta[4]
-    x0_, x1_, x2_ = x0[0], x0[1], x0[2]
-    p00, p11, p22 = P0diag[0], P0diag[1], P0diag[2]
+    Rr, Ray = theta[R_R], theta[R_AY]
+    x0_, x1_, x2_ = x0[X_VY], x0[X_R], x0[X_B]
+    p00, p11, p22 = P0diag[X_VY], P0diag[X_R], P0diag[X_B]
     p01 = p02 = p12 = 0.0
     nll = 0.0
     log2pi = np.log(2.0 * np.pi)
@@ -286,8 +300,8 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
         if use_ay:
             a_f = dk - (x0_ + af * x1_) / vk
             a_r = -(x0_ - ar * x1_) / vk
-            Ff, dFf = _tyre(a_f, Bf, Cf, Df, Ef)
-            Fr, dFr = _tyre(a_r, Br, Cr, Dr, Er)
+            Ff, dFf = magic_formula_slope(a_f, Bf, Cf, Df, Ef)
+            Fr, dFr = magic_formula_slope(a_r, Br, Cr, Dr, Er)
             h0 = (-dFf / vk - dFr / vk) / m
             h1 = (-dFf * af / vk + dFr * ar / vk) / m
             e1 = ay[k] - ((Ff + Fr) / m + x2_)
@@ -452,22 +466,42 @@ class _Inputs:
 def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float | None = 0.1):
     """Arrays for the kernels. Steering spikes (single-sample jumps > ``despike_steering``
     rad from the 3-sample median, e.g. 0.48 rad at t = 671.67 s in the Revs log) are removed:
-    a physical steering wheel cannot jump 0.1 rad road-wheel for one sample and come back."""
-    if np.any(log.vx <= 0):
-        k = int(np.argmax(log.vx <= 0))
-        raise ValueError(f"column 'vx_mps' must be > 0 (the model divides by it): row {k} has "
-                         f"{log.vx[k]:g}")
+    a physical steering wheel cannot jump 0.1 rad road-wheel for one sample and come back
+    (the 3-sample median reads the next sample: this cleaning is an offline step before the
+    causal filter, which then reads only samples up to k). Raises
+    :class:`~vehicle_observers.core.errors.ObserverArgumentError` naming the column and row
+    of a non-finite value or of a speed <= 0."""
     has_ay = log.ay is not None
     use = has_ay if use_ay is None else bool(use_ay)
     if use and not has_ay:
-        raise ValueError("use_ay=True but the log has no 'ay_mps2' column")
+        raise ObserverArgumentError("use_ay=True but the log has no 'ay_mps2' column")
+    cols = {"t_s": log.t, "vx_mps": log.vx, "delta_roadwheel_rad": log.delta,
+            "yaw_rate_radps": log.yaw_rate, **({"ay_mps2": log.ay} if use else {})}
+    for c, a in cols.items():
+        bad = ~np.isfinite(np.asarray(a, dtype=float))
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ObserverArgumentError(
+                f"{log.source or 'log'}: column {c!r} has {int(bad.sum())} non-finite value(s), "
+                f"first at row {k} ({a[k]}); the Kalman filters need finite measurements")
+    if np.any(log.vx <= 0):
+        k = int(np.argmax(log.vx <= 0))
+        raise ObserverArgumentError(f"column 'vx_mps' must be > 0 (the model divides by it): "
+                                    f"row {k} has {log.vx[k]:g}")
     delta = np.ascontiguousarray(log.delta, dtype=float)
     if despike_steering is not None:
         delta, _ = despike(delta, despike_steering)
     ay = np.ascontiguousarray(log.ay if use else np.zeros_like(log.t), dtype=float)
-    x0 = np.array([0.0, float(log.yaw_rate[0]), 0.0])
+    x0 = _x0(log.yaw_rate[0])
     return _Inputs(np.ascontiguousarray(log.t, dtype=float), np.ascontiguousarray(log.vx, float),
                    delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0)
+
+
+def _x0(yaw_rate0) -> np.ndarray:
+    """Default initial estimate: ``v_y = 0``, the measured yaw rate, no a_y offset."""
+    x0 = np.zeros(NX)
+    x0[X_R] = float(yaw_rate0)
+    return x0
 
 
 #: initial sideslip standard deviation [rad] used to cap the initial v_y variance
@@ -480,47 +514,200 @@ def _p0(P0, inp: _Inputs) -> np.ndarray:
     1 m/s v_y uncertainty means slip angles far past the tyre peak; sigma points there lock
     the UKF onto the saturated-tyre branch, where v_y is unobservable."""
     p = np.array(P0, dtype=float)
-    p[0] = min(p[0], (BETA0_STD * float(inp.vx[0])) ** 2)
+    p[X_VY] = min(p[X_VY], (BETA0_STD * float(inp.vx[0])) ** 2)
     return p
 
 
 def _forces(X, inp: _Inputs, params: LateralParams):
-    a_f = inp.delta - (X[:, 0] + params.a_f * X[:, 1]) / inp.vx
-    a_r = -(X[:, 0] - params.a_r * X[:, 1]) / inp.vx
+    """Axle forces [N] of the tyre model at the slip angles (4) of the estimates X (N, 3)."""
+    a_f = inp.delta - (X[:, X_VY] + params.a_f * X[:, X_R]) / inp.vx
+    a_r = -(X[:, X_VY] - params.a_r * X[:, X_R]) / inp.vx
     return params.tire_f.force(a_f), params.tire_r.force(a_r)
 
 
+# ------------------------------------------------------------------ observers ------------
+@dataclass(frozen=True)
+class KalmanDesign:
+    """What the Kalman filters of this module are built from: the car ``params``, the noise
+    ``tuning`` (:class:`~vehicle_observers.models.vehicle.KalmanTuning`) and whether a_y is
+    measured (``use_ay``; without it ``b_ay`` is inert). ``certificate`` is ``None``: a
+    noise tuning, no LMI."""
+
+    params: LateralParams
+    tuning: KalmanTuning = field(default_factory=KalmanTuning)
+    use_ay: bool = True
+    certificate: None = None
+
+
+class _KalmanObserver(ObserverBase):
+    """Shared plumbing of :class:`LateralEKF` and :class:`LateralUKF`: names, inputs, the
+    model in readable numpy (f, its Jacobian, h and its Jacobian)."""
+
+    state_names = STATE_NAMES
+    input_names = ("delta_roadwheel_rad", "vx_mps")
+
+    def __init__(self, design: KalmanDesign):
+        if not isinstance(design, KalmanDesign):
+            raise ObserverArgumentError(f"{type(self).__name__}: design must be a KalmanDesign, "
+                                        f"got {type(design).__name__}")
+        self.design = design
+        self.output_names = (("yaw_rate_radps", "ay_mps2") if design.use_ay
+                             else ("yaw_rate_radps",))
+        P = design.params.as_array()
+        self._front = (P[TF_B], P[TF_C], P[TF_D], P[TF_E])
+        self._rear = (P[TR_B], P[TR_C], P[TR_D], P[TR_E])
+        th = design.tuning.theta()
+        self._q = np.array([th[Q_VY], th[Q_R], th[Q_B] if design.use_ay else 0.0])
+        self._R = np.diag([th[R_R], th[R_AY]][: len(self.output_names)])
+
+    def _inputs(self, t, u, y, x0) -> _Inputs:
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        vx = np.ascontiguousarray(u[:, 1])
+        if np.any(vx <= 0):
+            k = int(np.argmax(vx <= 0))
+            raise ObserverArgumentError(f"{type(self).__name__}: u column 1 (vx_mps) must be > 0 "
+                                        f"(the model divides by it): row {k} has {vx[k]:g}")
+        ay = np.ascontiguousarray(y[:, 1]) if self.design.use_ay else np.zeros_like(t)
+        return _Inputs(t, vx, np.ascontiguousarray(u[:, 0]), np.ascontiguousarray(y[:, 0]), ay,
+                       self.design.use_ay, _x0(y[0, 0]) if x0 is None else x0)
+
+    # ---- the model of the module docstring, readable numpy --------------------------
+    def _tyres(self, x, delta, vx):
+        """Slip angles (4) and ``(F, dF/dalpha)`` of both axles (Pacejka (2)/(7))."""
+        p = self.design.params
+        a_f = delta - (x[X_VY] + p.a_f * x[X_R]) / vx
+        a_r = -(x[X_VY] - p.a_r * x[X_R]) / vx
+        return magic_formula_slope(a_f, *self._front), magic_formula_slope(a_r, *self._rear)
+
+    def f(self, x, delta, vx):
+        """``dx/dt`` of eq. (1) with the inert bias, and its Jacobian ``A`` (3, 3)."""
+        p = self.design.params
+        (Ff, dFf), (Fr, dFr) = self._tyres(x, delta, vx)
+        # d alpha_f / d(v_y, r) = (-1, -a_f) / v_x;  d alpha_r / d(v_y, r) = (-1, a_r) / v_x
+        dFf_dx = np.array([-dFf / vx, -dFf * p.a_f / vx, 0.0])
+        dFr_dx = np.array([-dFr / vx, dFr * p.a_r / vx, 0.0])
+        xdot = np.array([(Ff + Fr) / p.m - vx * x[X_R], (p.a_f * Ff - p.a_r * Fr) / p.I_z, 0.0])
+        A = np.array([(dFf_dx + dFr_dx) / p.m - np.array([0.0, vx, 0.0]),
+                      (p.a_f * dFf_dx - p.a_r * dFr_dx) / p.I_z,
+                      np.zeros(3)])
+        return xdot, A
+
+    def rk4(self, x, delta, vx, h):
+        """One RK4 step over ``h`` [s] with the inputs held, and its exact Jacobian ``F``:
+        stage sensitivities ``J_1 = A(x)``, ``J_i = A(x_i) (I + c_i J_{i-1})``,
+        ``F = I + h/6 (J_1 + 2 J_2 + 2 J_3 + J_4)`` (module docstring)."""
+        I = np.eye(NX)
+        k1, J1 = self.f(x, delta, vx)
+        k2, A2 = self.f(x + 0.5 * h * k1, delta, vx)
+        J2 = A2 @ (I + 0.5 * h * J1)
+        k3, A3 = self.f(x + 0.5 * h * k2, delta, vx)
+        J3 = A3 @ (I + 0.5 * h * J2)
+        k4, A4 = self.f(x + h * k3, delta, vx)
+        J4 = A4 @ (I + h * J3)
+        return x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4), I + h / 6.0 * (
+            J1 + 2.0 * J2 + 2.0 * J3 + J4)
+
+    def h(self, x, delta, vx):
+        """Measurement ``[r, (F_f + F_r)/m + b_ay]`` (or ``[r]``) and its Jacobian ``H``."""
+        p = self.design.params
+        (Ff, dFf), (Fr, dFr) = self._tyres(x, delta, vx)
+        y = np.array([x[X_R], (Ff + Fr) / p.m + x[X_B]])
+        H = np.array([[0.0, 1.0, 0.0],
+                      [(-dFf / vx - dFr / vx) / p.m, (-dFf * p.a_f / vx + dFr * p.a_r / vx) / p.m,
+                       1.0]])
+        n = len(self.output_names)
+        return y[:n], H[:n]
+
+    def _prior(self, t, u, y, x0):
+        """``(x0, P0)``: the documented default ``[0, y_0, 0]`` and the capped ``P0``."""
+        x0 = _x0(y[0, 0]) if x0 is None else np.asarray(x0, dtype=float)
+        P0 = np.diag(_p0(self.design.tuning.P0, SimpleNamespace(vx=u[:, 1])))
+        return x0, P0
+
+    def estimate(self, z):
+        return z[:NX]
+
+    @staticmethod
+    def _pack(x, P):
+        return np.concatenate([x, P.ravel()])
+
+    @staticmethod
+    def _unpack(z):
+        return z[:NX], z[NX:].reshape(NX, NX)
+
+
+class LateralEKF(_KalmanObserver):
+    """Extended Kalman filter on the yaw-drift model of the module docstring, as an observer
+    of :mod:`vehicle_observers.core.protocol`. Inputs ``u = [delta, v_x]`` (N, 2), outputs
+    ``y = [r, a_y]`` (or ``[r]`` with ``use_ay=False``); internal state ``z = [x, vec(P)]``
+    (12,). Sample ``k``: predict from ``k - 1`` (one RK4 step over ``t_k - t_{k-1}`` with the
+    inputs of ``k - 1`` held, ``P <- F P F^T + diag(q) h``), then update with ``y_k`` (Joseph
+    form). :meth:`run` is the numba kernel :func:`_ekf`."""
+
+    def initial_state(self, t, u, y, x0=None):
+        x, P = self._prior(t, u, y, x0)
+        return self._pack(*self._update(x, P, y[0], u[0, 0], u[0, 1]))
+
+    def _update(self, x, P, yk, delta, vx):
+        """Kalman update with ``y_k``: ``K = P H^T S^-1``, ``x + K (y - h(x))``, Joseph form
+        ``(I - K H) P (I - K H)^T + K R K^T``."""
+        yhat, H = self.h(x, delta, vx)
+        S = H @ P @ H.T + self._R
+        K = P @ H.T @ np.linalg.inv(S)
+        IKH = np.eye(NX) - K @ H
+        return x + K @ (yk - yhat), IKH @ P @ IKH.T + K @ self._R @ K.T
+
+    def step(self, z, k, t, u, y):
+        """``z_k`` from ``z_{k-1}``: predict with the inputs of sample ``k - 1`` over
+        ``h = t_k - t_{k-1}``, then update with ``y_k`` (inputs of sample ``k`` in ``h``)."""
+        x, P = self._unpack(z)
+        h = t[k] - t[k - 1]
+        x, F = self.rk4(x, u[k - 1, 0], u[k - 1, 1], h)
+        P = F @ P @ F.T + np.diag(self._q * h)
+        return self._pack(*self._update(x, P, y[k], u[k, 0], u[k, 1]))
+
+    def run(self, t, u, y, x0=None, store: bool = False) -> KalmanRun:
+        """The numba EKF :func:`_ekf` over the samples (``store=True`` keeps the priors and
+        Jacobians in ``info['Xp', 'Pp', 'Fs']`` for the smoother)."""
+        return self._run_inputs(self._inputs(t, u, y, x0), store)
+
+    def _run_inputs(self, inp: _Inputs, store: bool = False) -> KalmanRun:
+        d = self.design
+        args = (inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, d.params.as_array(),
+                d.tuning.theta(), inp.x0, _p0(d.tuning.P0, inp), store)
+        t0 = time.perf_counter()
+        Xf, Pf, Pfd, Xp, Pp, Fs, nll = _ekf(*args)
+        sec = time.perf_counter() - t0
+        Ff, Fr = _forces(Xf, inp, d.params)
+        P = Pf if store else np.einsum("ki,ij->kij", Pfd, np.eye(3))
+        info = {"use_ay": inp.use_ay, "tuning": d.tuning}
+        if store:
+            info.update(Xp=Xp, Pp=Pp, Fs=Fs)
+        return _run("EKF", inp.t, Xf, P, Ff, Fr, nll, sec, True, info)
+
+
 def ekf(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-        use_ay: bool | None = None, store: bool = False) -> KalmanResult:
-    """Numba EKF on ``log`` (see module docstring). ``store=True`` keeps the priors and
-    Jacobians (``info['Xp', 'Pp', 'Fs', 'Pf']``) for the smoother."""
+        use_ay: bool | None = None, store: bool = False) -> KalmanRun:
+    """Numba EKF on ``log`` (see module docstring): :class:`LateralEKF` on the despiked
+    inputs of :func:`prepare`. ``store=True`` keeps the priors and Jacobians
+    (``info['Xp', 'Pp', 'Fs']``, ``P`` full) for the smoother."""
     tuning = tuning or KalmanTuning()
     inp = prepare(log, use_ay)
-    Parr = params.as_array()
-    args = (inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, Parr, tuning.theta(), inp.x0,
-            _p0(tuning.P0, inp), store)
-    t0 = time.perf_counter()
-    Xf, Pf, Pfd, Xp, Pp, Fs, nll = _ekf(*args)
-    sec = time.perf_counter() - t0
-    Ff, Fr = _forces(Xf, inp, params)
-    P = Pf if store else np.einsum("ki,ij->kij", Pfd, np.eye(3))
-    info = {"use_ay": inp.use_ay, "tuning": tuning}
-    if store:
-        info.update(Xp=Xp, Pp=Pp, Fs=Fs)
-    return KalmanResult("EKF", inp.t, Xf, P, Ff, Fr, float(nll), sec, True, info)
+    return LateralEKF(KalmanDesign(params, tuning, inp.use_ay))._run_inputs(inp, store)
 
 
 def rts(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-        use_ay: bool | None = None) -> KalmanResult:
-    """Extended RTS smoother (offline, non-causal): EKF forward pass + RTS backward pass."""
+        use_ay: bool | None = None) -> KalmanRun:
+    """Extended RTS smoother (offline, non-causal: ``causal=False``): EKF forward pass + RTS
+    backward pass (Rauch, Tung & Striebel 1965)."""
     t0 = time.perf_counter()
     f = ekf(log, params, tuning, use_ay, store=True)
     Xs, Ps = _rts(f.X, f.P, f.info["Xp"], f.info["Pp"], f.info["Fs"])
     sec = time.perf_counter() - t0
     inp = prepare(log, use_ay)
     Ff, Fr = _forces(Xs, inp, params)
-    return KalmanResult("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False,
-                        {"use_ay": inp.use_ay, "tuning": f.info["tuning"]})
+    return _run("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False,
+                {"use_ay": inp.use_ay, "tuning": f.info["tuning"]})
 
 
 def nll(log_or_inputs, params: LateralParams, tuning: KalmanTuning) -> float:
@@ -539,8 +726,16 @@ def thin(log: DriveLog, every: int) -> DriveLog:
                     source=f"{log.source} (every {every}th sample)" if every > 1 else log.source)
 
 
-#: search box of the ML tuning, log10 of (q_vy, q_r, q_b, R_r, R_ay)
+#: search box of the ML tuning, log10 of (q_vy, q_r, q_b, R_r, R_ay) (the order of
+#: :meth:`KalmanTuning.theta`: :data:`Q_VY` ... :data:`R_AY`)
 TUNE_BOUNDS = ((-8.0, 2.0), (-8.0, 1.0), (-6.0, 1.0), (-10.0, 0.0), (-6.0, 2.0))
+#: names of the entries of :meth:`KalmanTuning.theta`, in its order
+THETA_NAMES = ("q_vy", "q_r", "q_b", "R_r", "R_ay")
+
+
+def _free(use_ay: bool) -> list[int]:
+    """Tuned entries of theta: all five with a_y, else ``q_vy, q_r, R_r`` (b_ay is inert)."""
+    return [Q_VY, Q_R, Q_B, R_R, R_AY] if use_ay else [Q_VY, Q_R, R_R]
 
 
 #: measurement variances are bounded below by this share of the channel's white-noise
@@ -608,10 +803,10 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     inp = prepare(log, use_ay)
     Parr = params.as_array()
     P0 = _p0(start.P0, inp)
-    free = [0, 1, 2, 3, 4] if inp.use_ay else [0, 1, 3]
+    free = _free(inp.use_ay)
     bounds = [tuple(b) for b in TUNE_BOUNDS]
     if noise_floor:
-        for i, v in zip((3, 4), noise_floors(log).values()):
+        for i, v in zip((R_R, R_AY), noise_floors(log).values()):
             bounds[i] = (min(max(bounds[i][0], float(np.log10(v))), bounds[i][1] - 0.5),
                          bounds[i][1])
     bounds = [bounds[i] for i in free]
@@ -675,8 +870,8 @@ def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
     every = max(1, int(np.floor(1.0 / (log.dt * max_rate_hz) + 1e-9)))
     log = thin(log, every)
     inp = prepare(log)
-    names = ["q_vy", "q_r", "q_b", "R_r", "R_ay"]
-    free = [0, 1, 2, 3, 4] if inp.use_ay else [0, 1, 3]
+    names = list(THETA_NAMES)
+    free = _free(inp.use_ay)
     th0 = tuning.theta()
     z0 = np.log10(th0[free])
     Parr, P0 = params.as_array(), _p0(tuning.P0, inp)
@@ -700,7 +895,7 @@ def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
     floors = noise_floors(log)
     lo = [b[0] for b in TUNE_BOUNDS]
     hi = [b[1] for b in TUNE_BOUNDS]
-    for i, k in ((3, "R_r"), (4, "R_ay")):
+    for i, k in ((R_R, "R_r"), (R_AY, "R_ay")):
         if k in floors:
             lo[i] = max(lo[i], float(np.log10(floors[k])))
     at_bound = [names[i] for i, z in zip(free, z0) if z - lo[i] < 0.05 or hi[i] - z < 0.05]
@@ -752,7 +947,7 @@ def _filterpy_models(inp: _Inputs, params: LateralParams):
 
 
 def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-                 use_ay: bool | None = None, progress=None) -> KalmanResult:
+                 use_ay: bool | None = None, progress=None) -> KalmanRun:
     """The same EKF with ``filterpy.kalman.ExtendedKalmanFilter`` (update, then a predict
     whose mean is the RK4 step and whose ``F`` is its Jacobian). Pure Python per step."""
     from filterpy.kalman import ExtendedKalmanFilter
@@ -765,9 +960,7 @@ def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
     kf.x = inp.x0.copy()
     kf.P = np.diag(_p0(tuning.P0, inp))
     kf.R = np.diag([tuning.R_r, tuning.R_ay][:dz])
-    q = tuning.theta()[:3].copy()
-    if not inp.use_ay:
-        q[2] = 0.0
+    q = LateralEKF(KalmanDesign(params, tuning, inp.use_ay))._q
     N = len(inp.t)
     X = np.empty((N, 3))
     P = np.empty((N, 3, 3))
@@ -789,8 +982,8 @@ def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
             kf.x = xn
     sec = time.perf_counter() - t0
     Ff, Fr = _forces(X, inp, params)
-    return KalmanResult("EKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
-                        {"use_ay": inp.use_ay, "tuning": tuning})
+    return _run("EKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
+                {"use_ay": inp.use_ay, "tuning": tuning})
 
 
 def nearest_spd(P, floor: float = 1e-12):
@@ -807,60 +1000,132 @@ def nearest_spd(P, floor: float = 1e-12):
     return 0.5 * (S + S.T), True
 
 
-def ukf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-                 use_ay: bool | None = None, alpha: float = 0.1, beta: float = 2.0,
-                 kappa: float = 0.0, progress=None) -> KalmanResult:
-    """``filterpy`` UKF (Merwe scaled sigma points, ``alpha, beta, kappa``) on the same
-    discretised model (sigma points through the RK4 step; ``progress(k, N)`` is called
-    every 2000 steps). After each predict and update, P is re-symmetrised and its
-    eigenvalues floored (:func:`nearest_spd`); ``info['spd_repairs']`` counts the repairs."""
-    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+class LateralUKF(_KalmanObserver):
+    """Unscented Kalman filter on the yaw-drift model (Julier & Uhlmann; Merwe scaled sigma
+    points ``alpha, beta, kappa``, Van der Merwe 2004) with the same RK4-discretised model,
+    noise and order as :class:`LateralEKF`; after each predict and update ``P`` is
+    re-symmetrised and its eigenvalues floored (:func:`nearest_spd`). :meth:`run` is
+    ``filterpy.kalman.UnscentedKalmanFilter`` (Python per step); :meth:`step` the same
+    filter in plain numpy. Internal state ``z = [x, vec(P)]`` (12,)."""
 
-    tuning = tuning or KalmanTuning()
-    inp = prepare(log, use_ay)
-    state, fx, jac, hx, Hj = _filterpy_models(inp, params)
-    dz = 2 if inp.use_ay else 1
-    pts = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa)
-    dt0 = float(np.median(np.diff(inp.t))) if len(inp.t) > 1 else 0.01
-    kf = UnscentedKalmanFilter(dim_x=3, dim_z=dz, dt=dt0, hx=hx, fx=fx, points=pts)
-    kf.x = inp.x0.copy()
-    kf.P = np.diag(_p0(tuning.P0, inp))
-    kf.R = np.diag([tuning.R_r, tuning.R_ay][:dz])
-    q = tuning.theta()[:3].copy()
-    if not inp.use_ay:
-        q[2] = 0.0
-    N = len(inp.t)
-    X = np.empty((N, 3))
-    P = np.empty((N, 3, 3))
-    z = np.column_stack([inp.yr, inp.ay])[:, :dz]
-    repairs = 0
-    t0 = time.perf_counter()
-    # filterpy's UKF predicts from the stored sigma points of the last update, so the
-    # sequence is predict(k-1 -> k) then update(k); the first sample is updated directly.
-    kf.sigmas_f = pts.sigma_points(kf.x, kf.P)  # the prior at k = 0 is (x0, P0)
-    for k in range(N):
-        if progress is not None and k % 2000 == 0:
-            progress(k, N)
-        if k > 0:
-            h = inp.t[k] - inp.t[k - 1]
-            state["k"] = k - 1
-            kf.Q = np.diag(q * h)
-            kf.predict(dt=h)
+    def __init__(self, design: KalmanDesign, alpha: float = 0.1, beta: float = 2.0,
+                 kappa: float = 0.0):
+        super().__init__(design)
+        for name, v in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
+            if not np.isfinite(v):
+                raise ObserverArgumentError(f"LateralUKF: {name} must be finite, got {v}")
+        if not alpha > 0:
+            raise ObserverArgumentError(f"LateralUKF: alpha must be > 0, got {alpha}")
+        self.alpha, self.beta, self.kappa = float(alpha), float(beta), float(kappa)
+        n = NX
+        lam = alpha**2 * (n + kappa) - n
+        self._lam = lam
+        self._Wm = np.full(2 * n + 1, 0.5 / (n + lam))
+        self._Wc = self._Wm.copy()
+        self._Wm[0] = lam / (n + lam)
+        self._Wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
+
+    # ---- the unscented transform, readable numpy ------------------------------------
+    def sigma_points(self, x, P):
+        """``2n + 1`` Merwe points: ``x``, ``x +- U_i`` with ``U^T U = (n + lambda) P``."""
+        U = np.linalg.cholesky((NX + self._lam) * P).T
+        return np.vstack([x, x + U, x - U])
+
+    def _ut(self, sigmas, noise):
+        """Weighted mean and covariance of the points, plus the noise covariance."""
+        mean = self._Wm @ sigmas
+        d = sigmas - mean
+        return mean, d.T @ np.diag(self._Wc) @ d + noise
+
+    def _update(self, x, P, sigmas, yk, delta, vx):
+        """Measurement update with the state points ``sigmas`` (filterpy's order)."""
+        Y = np.array([self.h(s, delta, vx)[0] for s in sigmas])
+        yp, S = self._ut(Y, self._R)
+        Pxy = (sigmas - x).T @ np.diag(self._Wc) @ (Y - yp)
+        K = Pxy @ np.linalg.inv(S)
+        return x + K @ (yk - yp), nearest_spd(P - K @ S @ K.T)[0]
+
+    def initial_state(self, t, u, y, x0=None):
+        x, P = self._prior(t, u, y, x0)
+        return self._pack(*self._update(x, P, self.sigma_points(x, P), y[0], u[0, 0], u[0, 1]))
+
+    def step(self, z, k, t, u, y):
+        """Predict the points of ``z_{k-1}`` through the RK4 step (inputs of ``k - 1``,
+        ``h = t_k - t_{k-1}``, ``Q = diag(q) h``), redraw points at the prior (as filterpy
+        does), repair ``P``, then update with ``y_k``."""
+        x, P = self._unpack(z)
+        h = t[k] - t[k - 1]
+        Xf = np.array([self.rk4(s, u[k - 1, 0], u[k - 1, 1], h)[0]
+                       for s in self.sigma_points(x, P)])
+        x, P = self._ut(Xf, np.diag(self._q * h))
+        sigmas = self.sigma_points(x, P)
+        P = nearest_spd(P)[0]
+        return self._pack(*self._update(x, P, sigmas, y[k], u[k, 0], u[k, 1]))
+
+    def run(self, t, u, y, x0=None, progress=None) -> KalmanRun:
+        """``filterpy``'s UKF over the samples (``progress(k, N)`` every 2000 steps);
+        ``info['spd_repairs']`` counts the covariance repairs."""
+        return self._run_inputs(self._inputs(t, u, y, x0), progress)
+
+    def _run_inputs(self, inp: _Inputs, progress=None) -> KalmanRun:
+        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+        d = self.design
+        state, fx, jac, hx, Hj = _filterpy_models(inp, d.params)
+        dz = len(self.output_names)
+        pts = MerweScaledSigmaPoints(NX, alpha=self.alpha, beta=self.beta, kappa=self.kappa)
+        dt0 = float(np.median(np.diff(inp.t))) if len(inp.t) > 1 else 0.01
+        kf = UnscentedKalmanFilter(dim_x=NX, dim_z=dz, dt=dt0, hx=hx, fx=fx, points=pts)
+        kf.x = inp.x0.copy()
+        kf.P = np.diag(_p0(d.tuning.P0, inp))
+        kf.R = self._R
+        q = self._q
+        N = len(inp.t)
+        X = np.empty((N, NX))
+        P = np.empty((N, NX, NX))
+        z = np.column_stack([inp.yr, inp.ay])[:, :dz]
+        repairs = 0
+        t0 = time.perf_counter()
+        # filterpy's UKF predicts from the stored sigma points of the last update, so the
+        # sequence is predict(k-1 -> k) then update(k); the first sample is updated directly.
+        kf.sigmas_f = pts.sigma_points(kf.x, kf.P)  # the prior at k = 0 is (x0, P0)
+        for k in range(N):
+            if progress is not None and k % 2000 == 0:
+                progress(k, N)
+            if k > 0:
+                h = inp.t[k] - inp.t[k - 1]
+                state["k"] = k - 1
+                kf.Q = np.diag(q * h)
+                kf.predict(dt=h)
+                kf.P, fixed = nearest_spd(kf.P)
+                repairs += fixed
+            state["k"] = k
+            if k == 0:
+                kf.sigmas_f = pts.sigma_points(kf.x, kf.P)
+            kf.update(z[k])
             kf.P, fixed = nearest_spd(kf.P)
             repairs += fixed
-        state["k"] = k
-        if k == 0:
-            kf.sigmas_f = pts.sigma_points(kf.x, kf.P)
-        kf.update(z[k])
-        kf.P, fixed = nearest_spd(kf.P)
-        repairs += fixed
-        X[k] = kf.x
-        P[k] = kf.P
-    sec = time.perf_counter() - t0
-    Ff, Fr = _forces(X, inp, params)
-    return KalmanResult("UKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
-                        {"use_ay": inp.use_ay, "tuning": tuning, "spd_repairs": repairs})
+            X[k] = kf.x
+            P[k] = kf.P
+        sec = time.perf_counter() - t0
+        Ff, Fr = _forces(X, inp, d.params)
+        return _run("UKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
+                    {"use_ay": inp.use_ay, "tuning": d.tuning, "spd_repairs": repairs})
 
 
-def with_tuning(res: KalmanResult, tuning: KalmanTuning) -> KalmanResult:
+def ukf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
+                 use_ay: bool | None = None, alpha: float = 0.1, beta: float = 2.0,
+                 kappa: float = 0.0, progress=None) -> KalmanRun:
+    """``filterpy`` UKF (:class:`LateralUKF`, Merwe scaled sigma points ``alpha, beta,
+    kappa``) on the despiked inputs of :func:`prepare` (sigma points through the RK4 step;
+    ``progress(k, N)`` is called every 2000 steps). After each predict and update, P is
+    re-symmetrised and its eigenvalues floored (:func:`nearest_spd`);
+    ``info['spd_repairs']`` counts the repairs."""
+    tuning = tuning or KalmanTuning()
+    inp = prepare(log, use_ay)
+    obs = LateralUKF(KalmanDesign(params, tuning, inp.use_ay), alpha, beta, kappa)
+    return obs._run_inputs(inp, progress)
+
+
+def with_tuning(res: KalmanRun, tuning: KalmanTuning) -> KalmanRun:
     return replace(res, info={**res.info, "tuning": tuning})

@@ -34,7 +34,7 @@ from vehicle_observers.baselines import kalman as K
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.lateral import LateralParams
-from vehicle_observers.models.vehicle import KalmanTuning
+from vehicle_observers.models.vehicle import Q_B, Q_R, Q_VY, R_AY, R_R, KalmanTuning
 
 #: number of innovation autocorrelation lags of the Ljung-Box test (0.2 s at 100 Hz)
 WHITENESS_LAGS = 20
@@ -58,7 +58,7 @@ def simulate_matched(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
     n = len(inp.t) if max_samples is None else min(len(inp.t), int(max_samples))
     rng = np.random.default_rng(seed)
     th = tuning.theta()
-    q, Rsd = th[:3], np.sqrt(th[3:5])
+    q, Rsd = th[[Q_VY, Q_R, Q_B]], np.sqrt(th[[R_R, R_AY]])
     x = inp.x0.copy()
     X = np.empty((n, 3))
     Y = np.empty((n, 2))
@@ -141,14 +141,14 @@ def innovation_whiteness(log: DriveLog, params: LateralParams, tuning: KalmanTun
     return out
 
 
-def bias_coupling(ekf_res: K.KalmanResult, rts_res: K.KalmanResult, mask=None) -> dict:
+def bias_coupling(ekf_res: K.KalmanRun, rts_res: K.KalmanRun, mask=None) -> dict:
     """How the smoother moves v_y together with the a_y bias: least-squares slope
     ``d v_y / d b_ay`` [m/s per m/s^2] of ``v_y^RTS - v_y^EKF`` on
     ``b_ay^RTS - b_ay^EKF`` and its R^2 (share of the smoother's v_y change that moves with its
     bias change). Returns ``{"slope", "r2"}``."""
     m = np.ones(len(ekf_res.t), bool) if mask is None else np.asarray(mask, bool)
-    dv = (rts_res.X[:, 0] - ekf_res.X[:, 0])[m]
-    db = (rts_res.X[:, 2] - ekf_res.X[:, 2])[m]
+    dv = (rts_res.X[:, K.X_VY] - ekf_res.X[:, K.X_VY])[m]
+    db = (rts_res.X[:, K.X_B] - ekf_res.X[:, K.X_B])[m]
     if np.std(db) == 0 or np.std(dv) == 0:
         return {"slope": float("nan"), "r2": float("nan")}
     c = np.polyfit(db, dv, 1)

@@ -287,6 +287,17 @@ def check_data(t, u, y, x0, m: int, p: int, n: int, who: str = "observer"):
     return tuple(out)
 
 
+def check_sample_period(t, dt: float, who: str = "observer", rtol: float = 1e-3):
+    """For a fixed-step observer designed at one sample period ``dt`` [s]: raise
+    :class:`ObserverArgumentError` naming ``t`` and the first bad step unless every step of
+    ``t`` (N,) is within ``rtol`` (relative) of ``dt``."""
+    d = np.diff(np.asarray(t, dtype=float))
+    if len(d) and np.abs(d - dt).max() > rtol * dt:
+        k = int(np.argmax(np.abs(d - dt)))
+        raise ObserverArgumentError(f"{who}: t must be sampled every dt = {dt:.6g} s (fixed-step "
+                                    f"observer); step {k} is {d[k]:.6g} s")
+
+
 def run_readable(obs: Observer, t, u, y, x0=None) -> Trajectory:
     """The observer's readable numpy step looped in plain Python: the reference that every
     compiled :meth:`Observer.run` is tested equal to (slow; for tests and teaching)."""

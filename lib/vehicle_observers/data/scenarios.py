@@ -75,7 +75,7 @@ import numpy as np
 from numba import njit
 
 from vehicle_observers.data.logs import DriveLog
-from vehicle_observers.models.lateral import LateralParams, magic_formula_kernel
+from vehicle_observers.models.lateral import A_F, A_R, L_S, LateralParams, s1_rhs, slip_angles
 from vehicle_observers.models.vehicle import load_vehicle
 
 # ----------------------------------------------------------------- defaults ----------------
@@ -242,33 +242,30 @@ def time_grid(s_grid, v_grid, fs: float = FS_HZ, t_end: float | None = None):
 
 
 # ----------------------------------------------------------------- truth simulation -------
+#: layout of the packed driver vector ``drv`` of :func:`_closed_loop`
+DRV_PREVIEW_TIME, DRV_PREVIEW_MIN, DRV_KUS, DRV_STEER_TAU, DRV_FF_PREVIEW = range(5)
+#: state of the truth simulation: S1 (8) ``[v_y, r, F_f, F_r]``, S2 (9) ``[psi_L, y_L]``,
+#: the actuated steering ``delta``
+X_VY, X_R, X_FF, X_FR, X_PSIL, X_YL, X_DELTA = range(7)
+
+
 @njit(cache=True)
 def _rhs(X, dcmd, vx, rho, P, tau_s, out, exact=True):
-    # X = [vy, r, Ff, Fr, psiL, yL, delta]
-    m, Iz, af, ar, rf, rr, ls = P[0], P[1], P[2], P[3], P[4], P[5], P[6]
-    vy, r, Ff, Fr, psiL, delta = X[0], X[1], X[2], X[3], X[4], X[6]
-    if exact:
-        beta = np.arctan2(vy, vx)
-        cb = np.cos(beta)
-        a_f = delta - beta - np.arctan(af * r * cb / vx)      # eq. (3)
-        a_r = -beta + np.arctan(ar * r * cb / vx)
-    else:
-        a_f = delta - vy / vx - af * r / vx                   # eq. (4)
-        a_r = -vy / vx + ar * r / vx
-    FfS = magic_formula_kernel(a_f, P[7], P[8], P[9], P[10])                    # eq. (7)
-    FrS = magic_formula_kernel(a_r, P[11], P[12], P[13], P[14])
-    out[0] = (Ff + Fr) / m - vx * r                             # eq. (8)
-    out[1] = (af * Ff - ar * Fr) / Iz
-    out[2] = vx / rf * (FfS - Ff)
-    out[3] = vx / rr * (FrS - Fr)
-    out[4] = r - vx * rho                                       # eq. (9)
-    out[5] = vy + vx * psiL + ls * (r - vx * rho)
-    out[6] = (dcmd - delta) / tau_s
+    """S1 (8) with slip (3) (``exact``) or (4) and Pacejka forces (7) (:func:`lateral.s1_rhs`),
+    the vision model S2 (9) and the first-order steering actuator towards ``dcmd``."""
+    s1_rhs(X, X[X_DELTA], vx, P, exact, True, out)                    # eqs. (3)/(4), (7), (8)
+    vy, r, psiL = X[X_VY], X[X_R], X[X_PSIL]
+    ls = P[L_S]
+    out[X_PSIL] = r - vx * rho                                        # eq. (9)
+    out[X_YL] = vy + vx * psiL + ls * (r - vx * rho)
+    out[X_DELTA] = (dcmd - X[X_DELTA]) / tau_s
 
 
 @njit(cache=True)
 def _closed_loop(t, s, vx, track_s, track_rho, lap, P, dist, drv, substeps, X0):
-    """Closed-loop RK4 run; drv = [preview_time, preview_min, Kus, steer_tau, ff_preview]."""
+    """Closed-loop RK4 run; ``drv`` packed by the ``DRV_*`` indices (preview time [s],
+    preview minimum [m], understeer gradient K_us, steering time constant [s], curvature
+    feed-forward preview [s])."""
     N = t.shape[0]
     out = np.empty((N, 8))    # vy r Ff Fr psiL yL delta delta_cmd
     x = X0.copy()
@@ -277,32 +274,32 @@ def _closed_loop(t, s, vx, track_s, track_rho, lap, P, dist, drv, substeps, X0):
     k3 = np.empty(7)
     k4 = np.empty(7)
     tmp = np.empty(7)
-    L = P[2] + P[3]
-    ls = P[6]
+    L = P[A_F] + P[A_R]
+    ls = P[L_S]
     dt = t[1] - t[0]
     h = dt / substeps
     for k in range(N):
         v = vx[k]
-        d = max(drv[1], drv[0] * v)
-        sp = (s[k] + drv[4] * v) % lap
+        d = max(drv[DRV_PREVIEW_MIN], drv[DRV_PREVIEW_TIME] * v)
+        sp = (s[k] + drv[DRV_FF_PREVIEW] * v) % lap
         rho_prev = np.interp(sp, track_s, track_rho)
         rho = np.interp(s[k] % lap, track_s, track_rho)
-        e = x[5] + (d - ls) * x[4]
-        dcmd = rho_prev * (L + drv[2] * v * v) - 2.0 * L * e / (d * d) + dist[k]
+        e = x[X_YL] + (d - ls) * x[X_PSIL]
+        dcmd = rho_prev * (L + drv[DRV_KUS] * v * v) - 2.0 * L * e / (d * d) + dist[k]
         for i in range(7):
             out[k, i] = x[i]
         out[k, 7] = dcmd
         for _ in range(substeps):
-            _rhs(x, dcmd, v, rho, P, drv[3], k1)
+            _rhs(x, dcmd, v, rho, P, drv[DRV_STEER_TAU], k1)
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k1[i]
-            _rhs(tmp, dcmd, v, rho, P, drv[3], k2)
+            _rhs(tmp, dcmd, v, rho, P, drv[DRV_STEER_TAU], k2)
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k2[i]
-            _rhs(tmp, dcmd, v, rho, P, drv[3], k3)
+            _rhs(tmp, dcmd, v, rho, P, drv[DRV_STEER_TAU], k3)
             for i in range(7):
                 tmp[i] = x[i] + h * k3[i]
-            _rhs(tmp, dcmd, v, rho, P, drv[3], k4)
+            _rhs(tmp, dcmd, v, rho, P, drv[DRV_STEER_TAU], k4)
             for i in range(7):
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return out
@@ -314,7 +311,7 @@ def _open_loop(t, vx, delta, rho, P, substeps, exact):
     N = t.shape[0]
     out = np.empty((N, 6))
     x = np.zeros(7)
-    x[6] = delta[0]
+    x[X_DELTA] = delta[0]
     k1 = np.empty(7)
     k2 = np.empty(7)
     k3 = np.empty(7)
@@ -323,20 +320,20 @@ def _open_loop(t, vx, delta, rho, P, substeps, exact):
     dt = t[1] - t[0]
     h = dt / substeps
     for k in range(N):
-        x[6] = delta[k]
+        x[X_DELTA] = delta[k]
         for i in range(6):
             out[k, i] = x[i]
         for _ in range(substeps):
             _rhs(x, delta[k], vx[k], rho[k], P, 1.0, k1, exact)
-            k1[6] = 0.0
+            k1[X_DELTA] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k1[i]
             _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k2, exact)
-            k2[6] = 0.0
+            k2[X_DELTA] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + 0.5 * h * k2[i]
             _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k3, exact)
-            k3[6] = 0.0
+            k3[X_DELTA] = 0.0
             for i in range(7):
                 tmp[i] = x[i] + h * k3[i]
             _rhs(tmp, delta[k], vx[k], rho[k], P, 1.0, k4, exact)
@@ -368,15 +365,6 @@ def _ar1(w, a, x0):
     return out
 
 
-def _slip(vy, r, delta, vx, p, exact=True):
-    if not exact:
-        return delta - vy / vx - p.a_f * r / vx, -vy / vx + p.a_r * r / vx
-    beta = np.arctan2(vy, vx)
-    af = delta - beta - np.arctan(p.a_f * r * np.cos(beta) / vx)
-    ar = -beta + np.arctan(p.a_r * r * np.cos(beta) / vx)
-    return af, ar
-
-
 def _hold(x, t, rate_hz):
     """Sample-and-hold ``x`` at ``rate_hz`` frames (frame k holds from ``k / rate``)."""
     idx = np.floor(t * rate_hz + 1e-9) / rate_hz
@@ -399,7 +387,7 @@ def _make_log(t, truth, rho, vx_true, delta_true, s, p, rng, noise_scale, vision
     yL_m, psiL_m = yL + noise["yL"], psiL + noise["psiL"]
     if vision_rate_hz is not None:
         yL_m, psiL_m = _hold(yL_m, t, vision_rate_hz), _hold(psiL_m, t, vision_rate_hz)
-    af, ar = _slip(vy, r, delta_true, vx_true, p, exact_slip)
+    af, ar = slip_angles(vy, r, delta_true, vx_true, p, exact_slip)
     ex = {"s_m": s, "vx_true_mps": vx_true, "delta_true_rad": delta_true,
           "yaw_rate_true_radps": r, "ay_true_mps2": ay_true, "yL_true_m": yL,
           "psiL_true_rad": psiL, "alpha_f_true_rad": af, "alpha_r_true_rad": ar,
@@ -445,8 +433,10 @@ def emulated_satory(seed: int = 0, quick: bool = False, noise_scale: float = 1.0
     sg, vg = speed_profile(track, v_max=v_max)
     t, s, vx = time_grid(sg, vg, t_end=quick_duration if quick else None)
     dist = _filtered_noise(rng, len(t), 1.0 / FS_HZ, STEER_DIST_STD, STEER_DIST_TC)
-    drv = np.array([PREVIEW_TIME, PREVIEW_MIN, understeer_gradient(p), STEER_TAU,
-                    FF_PREVIEW_TIME])
+    drv = np.empty(5)
+    drv[DRV_PREVIEW_TIME], drv[DRV_PREVIEW_MIN], drv[DRV_KUS] = (PREVIEW_TIME, PREVIEW_MIN,
+                                                               understeer_gradient(p))
+    drv[DRV_STEER_TAU], drv[DRV_FF_PREVIEW] = STEER_TAU, FF_PREVIEW_TIME
     X0 = np.zeros(7)
     out = _closed_loop(t, s, vx, track.s_knots, track.rho_knots, track.length, p.as_array(),
                        dist, drv, int(substeps), X0)

@@ -142,6 +142,7 @@ _IV_CACHE: dict = {}
 
 def interval_design(vehicle, dt: float):
     """Theorem 2 design for ``vehicle`` at sample period ``dt``. Returns (design, seconds)."""
+    from vehicle_observers.models import uncertain_bicycle as _ub
     from vehicle_observers.observers import interval as _iv
 
     key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())), round(dt, 9))
@@ -150,10 +151,10 @@ def interval_design(vehicle, dt: float):
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-ifqir2017'")
     p = vehicle.params
-    veh = _iv.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+    veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
                                c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
-    bands = _iv.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
-    model = _iv.SwitchedIntervalModel(veh, bands)
+    bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+    model = _ub.SwitchedIntervalModel(veh, bands)
     t0 = time.perf_counter()
     des = _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
                               accel_max=ACCEL_MAX, p_min=1.0)
@@ -258,7 +259,7 @@ register(EstimatorSpec(
 
 def coordinate_interval_design(vehicle, dt: float):
     """Certified design in ``z = T x`` for ``vehicle`` at ``dt``. Returns (design, seconds)."""
-    from vehicle_observers.observers import interval as _iv
+    from vehicle_observers.models import uncertain_bicycle as _ub
     from vehicle_observers.observers import interval_coordinates as _ic
 
     key = ("coordinates", vehicle.params, tuple(sorted(vehicle.uncertainty.items())),
@@ -268,9 +269,9 @@ def coordinate_interval_design(vehicle, dt: float):
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-coordinates'")
     p = vehicle.params
-    veh = _iv.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+    veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
                                c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
-    bands = _iv.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+    bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
     t0 = time.perf_counter()
     des = _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
     _IV_CACHE[key] = (des, time.perf_counter() - t0)

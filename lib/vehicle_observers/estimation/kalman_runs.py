@@ -140,7 +140,7 @@ def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:
     return cols, sec
 
 
-def _kalman_columns(res: kalman.KalmanResult, log: DriveLog) -> dict:
+def _kalman_columns(res: kalman.KalmanRun, log: DriveLog) -> dict:
     cols = {"vy_mps": res.vy, "yaw_rate_radps": res.r,
             "beta_rad": np.arctan2(res.vy, log.vx), "Ff_N": res.Ff, "Fr_N": res.Fr,
             "vy_std_mps": np.sqrt(np.maximum(res.P[:, 0, 0], 0.0))}

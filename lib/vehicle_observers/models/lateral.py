@@ -23,8 +23,28 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from vehicle_observers.models.tires import LinearTire, Pacejka
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.models.tires import (
+    LinearTire,
+    Pacejka,
+    magic_formula,
+    magic_formula_secant,
+)
 from vehicle_observers.models.ts import Premise, SectorTS
+
+# ------------------------------------------------------------------ packed parameters -----
+#: Index of each constant in :meth:`LateralParams.as_array`, the float vector every compiled
+#: kernel of the lateral family reads (``P[M]`` is the mass, ``P[TF_B]`` the front tyre's B).
+M, I_Z, A_F, A_R, R_F, R_R, L_S = range(7)
+#: front-axle tyre ``(B, C, D, E)`` (``C = 0`` encodes a linear tyre of slope ``B`` [N/rad])
+TF_B, TF_C, TF_D, TF_E = range(7, 11)
+#: rear-axle tyre, same encoding
+TR_B, TR_C, TR_D, TR_E = range(11, 15)
+#: length of the packed vector
+N_PARAMS = 15
+#: order of the premises ``z = (f_r, f_f, v_x)`` of the TS model (24) (:func:`yacine_ts`,
+#: :func:`ts_premises`): rear and front secant stiffness (16) [N/rad], speed [m/s]
+Z_FR, Z_FF, Z_VX = range(3)
 
 
 @dataclass(frozen=True)
@@ -47,9 +67,16 @@ class LateralParams:
     name: str = field(default="vehicle", compare=False)
 
     def as_array(self) -> np.ndarray:
-        """Packed float array for the numba kernels (layout: see ``_P_*`` indices)."""
-        return np.array([self.m, self.I_z, self.a_f, self.a_r, self.r_f, self.r_r, self.l_s,
-                         *_tire_coeffs(self.tire_f), *_tire_coeffs(self.tire_r)], dtype=float)
+        """Packed float vector (:data:`N_PARAMS`,) for the numba kernels, laid out by the index
+        constants :data:`M`, :data:`I_Z`, :data:`A_F`, :data:`A_R`, :data:`R_F`,
+        :data:`R_R`, :data:`L_S`, :data:`TF_B` ... :data:`TF_E`, :data:`TR_B` ...
+        :data:`TR_E` of this module."""
+        P = np.empty(N_PARAMS)
+        P[M], P[I_Z], P[A_F], P[A_R] = self.m, self.I_z, self.a_f, self.a_r
+        P[R_F], P[R_R], P[L_S] = self.r_f, self.r_r, self.l_s
+        P[TF_B], P[TF_C], P[TF_D], P[TF_E] = _tire_coeffs(self.tire_f)
+        P[TR_B], P[TR_C], P[TR_D], P[TR_E] = _tire_coeffs(self.tire_r)
+        return P
 
 
 def _tire_coeffs(t) -> tuple[float, float, float, float]:
@@ -190,46 +217,12 @@ def yacine_ts(p: LateralParams, Mf: tuple[float, float], Mr: tuple[float, float]
 
 # ------------------------------------------------------------------ numba kernels ---------
 @njit(cache=True)
-def magic_formula_kernel(alpha, B, C, D, E):
-    """Compiled Pacejka force ``D sin(C atan(B(1-E) alpha + E atan(B alpha)))`` [N] at slip
-    ``alpha`` [rad] (Yacine 2015 eq. (7)); ``C == 0`` encodes a linear tyre of slope ``B``
-    [N/rad]. Scalar in, scalar out; equals :meth:`.models.tires.Pacejka.force`."""
-    if C == 0.0:  # linear tyre, slope B
-        return B * alpha
-    return D * np.sin(C * np.arctan(B * (1.0 - E) * alpha + E * np.arctan(B * alpha)))
-
-
-@njit(cache=True)
-def _atanc(x):
-    if abs(x) < 1e-4:
-        return 1.0 - x * x / 3.0 + x**4 / 5.0
-    return np.arctan(x) / x
-
-
-@njit(cache=True)
-def _sinc(x):
-    if abs(x) < 1e-4:
-        return 1.0 - x * x / 6.0 + x**4 / 120.0
-    return np.sin(x) / x
-
-
-@njit(cache=True)
-def secant_kernel(alpha, B, C, D, E):
-    """Compiled secant stiffness ``F(alpha)/alpha`` [N/rad] of the same Pacejka curve, finite
-    at ``alpha = 0`` (series of atan(x)/x and sin(x)/x): the TS premise of Yacine 2015
-    (14)-(17). Equals :meth:`.models.tires.Pacejka.secant_stiffness`."""
-    if C == 0.0:
-        return B
-    S1 = B * alpha
-    S2 = B * (1.0 - E) * alpha + E * np.arctan(S1)
-    S3 = C * np.arctan(S2)
-    common = _sinc(S3) * _atanc(S2)
-    return B * C * D * (1.0 - E) * common + B * C * D * E * common * _atanc(S1)
-
-
-@njit(cache=True)
-def _s1_rhs(X, delta, vx, P, exact, relax, out):
-    m, Iz, af, ar, rf, rr = P[0], P[1], P[2], P[3], P[4], P[5]
+def s1_rhs(X, delta, vx, P, exact, relax, out):
+    """Compiled right-hand side of S1 (8) (``relax=False``: model (1), forces steady) at the
+    state ``X = [v_y, r, F_f, F_r]`` (the forces are read only with relaxation), steering
+    ``delta`` [rad], speed ``vx`` [m/s], packed constants ``P`` (:meth:`LateralParams.as_array`);
+    slip angles exact (3) or small-angle (4), Pacejka forces (7). Writes ``out`` (4,)."""
+    m, Iz, af, ar, rf, rr = P[M], P[I_Z], P[A_F], P[A_R], P[R_F], P[R_R]
     vy, r = X[0], X[1]
     if exact:
         beta = np.arctan2(vy, vx)
@@ -238,8 +231,8 @@ def _s1_rhs(X, delta, vx, P, exact, relax, out):
     else:
         a_f = delta - vy / vx - af * r / vx
         a_r = -vy / vx + ar * r / vx
-    FfS = magic_formula_kernel(a_f, P[7], P[8], P[9], P[10])
-    FrS = magic_formula_kernel(a_r, P[11], P[12], P[13], P[14])
+    FfS = magic_formula(a_f, P[TF_B], P[TF_C], P[TF_D], P[TF_E])
+    FrS = magic_formula(a_r, P[TR_B], P[TR_C], P[TR_D], P[TR_E])
     if relax:
         Ff, Fr = X[2], X[3]
         out[2] = vx / rf * (FfS - Ff)
@@ -266,16 +259,16 @@ def _simulate_s1(X0, delta, vx, dt, substeps, P, exact, relax):
     for k in range(N):
         X[k] = x
         for _ in range(substeps):
-            _s1_rhs(x, delta[k], vx[k], P, exact, relax, k1)
+            s1_rhs(x, delta[k], vx[k], P, exact, relax, k1)
             for i in range(4):
                 tmp[i] = x[i] + 0.5 * h * k1[i]
-            _s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k2)
+            s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k2)
             for i in range(4):
                 tmp[i] = x[i] + 0.5 * h * k2[i]
-            _s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k3)
+            s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k3)
             for i in range(4):
                 tmp[i] = x[i] + h * k3[i]
-            _s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k4)
+            s1_rhs(tmp, delta[k], vx[k], P, exact, relax, k4)
             for i in range(4):
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     return X
@@ -285,12 +278,14 @@ def _check_inputs(delta, vx, dt, substeps):
     delta = np.ascontiguousarray(delta, dtype=float)
     vx = np.ascontiguousarray(np.broadcast_to(vx, delta.shape), dtype=float)
     if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(vx))):
-        raise ValueError("steering and speed must be finite")
+        raise ObserverArgumentError("steering and speed must be finite")
     if np.any(vx <= 0):
         k = int(np.argmax(vx <= 0))
-        raise ValueError(f"v_x must be > 0 (the model divides by it): v_x[{k}] = {vx[k]}")
-    if dt <= 0 or int(substeps) < 1:
-        raise ValueError(f"need dt > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+        raise ObserverArgumentError(f"v_x must be > 0 (the model divides by it): v_x[{k}] = "
+                                    f"{vx[k]}")
+    if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0) or int(substeps) < 1:
+        raise ObserverArgumentError(f"need a finite dt > 0 and substeps >= 1, got dt={dt}, "
+                                    f"substeps={substeps}")
     return delta, vx
 
 
@@ -314,7 +309,12 @@ def simulate_s1(X0, delta, vx, dt, p: LateralParams, exact=True, relaxation=True
 
 
 @njit(cache=True)
-def _ts_weights(z, zmin, zmax, h):
+def ts_weights(z, zmin, zmax, h):
+    """Memberships (22) of the multi-affine TS form at premises ``z`` (p,) inside
+    ``[zmin, zmax]``: ``h_i = prod_j w_j^{bit}``, ``w_j = (z_j - zmin_j)/(zmax_j - zmin_j)``,
+    vertex ``i``'s bit ``j`` (most significant first) 0 taking ``w_j`` (the upper bound),
+    1 taking ``1 - w_j`` (:func:`vehicle_observers.models.ts.memberships` order). Writes
+    ``h`` (2^p,)."""
     p = z.shape[0]
     nv = h.shape[0]
     for i in range(nv):
@@ -328,18 +328,18 @@ def _ts_weights(z, zmin, zmax, h):
 
 @njit(cache=True)
 def _ts_rhs(x, delta, vx, P, Av, Bv, zmin, zmax, h, z, out):
-    af, ar = P[2], P[3]
+    af, ar = P[A_F], P[A_R]
     a_f = delta - x[0] / vx - af * x[1] / vx
     a_r = -x[0] / vx + ar * x[1] / vx
-    z[0] = secant_kernel(a_r, P[11], P[12], P[13], P[14])
-    z[1] = secant_kernel(a_f, P[7], P[8], P[9], P[10])
-    z[2] = vx
+    z[Z_FR] = magic_formula_secant(a_r, P[TR_B], P[TR_C], P[TR_D], P[TR_E])
+    z[Z_FF] = magic_formula_secant(a_f, P[TF_B], P[TF_C], P[TF_D], P[TF_E])
+    z[Z_VX] = vx
     out_of_bounds = False
     for j in range(3):
         if z[j] < zmin[j] - 1e-9 * (zmax[j] - zmin[j]) or z[j] > zmax[j] + 1e-9 * (
                 zmax[j] - zmin[j]):
             out_of_bounds = True
-    _ts_weights(z, zmin, zmax, h)
+    ts_weights(z, zmin, zmax, h)
     n = x.shape[0]
     for i in range(n):
         out[i] = 0.0

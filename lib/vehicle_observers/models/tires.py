@@ -12,10 +12,13 @@ the factor ``E`` in front of the inner ``atan`` was lost. Eq. (16) of the same p
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+
+from vehicle_observers.core.errors import ObserverArgumentError
 
 
 # ------------------------------------------------------------------ the one tyre formula --
@@ -49,6 +52,37 @@ def magic_formula_slope(alpha, B, C, D, E):
     return D * np.sin(ang), D * np.cos(ang) * C / (1.0 + phi * phi) * dphi
 
 
+@njit(cache=True)
+def _atanc_scalar(x):
+    """atan(x)/x, 1 at 0 (series below 1e-4): compiled twin of :func:`_atanc`."""
+    if abs(x) < 1e-4:
+        return 1.0 - x * x / 3.0 + x**4 / 5.0
+    return np.arctan(x) / x
+
+
+@njit(cache=True)
+def _sinc_scalar(x):
+    """sin(x)/x, 1 at 0 (series below 1e-4): compiled twin of :func:`_sinc`."""
+    if abs(x) < 1e-4:
+        return 1.0 - x * x / 6.0 + x**4 / 120.0
+    return np.sin(x) / x
+
+
+@njit(cache=True)
+def magic_formula_secant(alpha, B, C, D, E):
+    """Secant stiffness ``F(alpha)/alpha`` [N/rad] of :func:`magic_formula`, finite at
+    ``alpha = 0`` (where it is ``B C D``): Yacine 2015 eq. (16) in its product form with the
+    series of ``atan(x)/x`` and ``sin(x)/x``, the TS premise of (14)-(17). ``C == 0``: the
+    linear tyre's slope ``B``. Compiled twin of :meth:`Pacejka.secant_stiffness`."""
+    if C == 0.0:
+        return B
+    S1 = B * alpha
+    S2 = B * (1.0 - E) * alpha + E * np.arctan(S1)
+    S3 = C * np.arctan(S2)
+    common = _sinc_scalar(S3) * _atanc_scalar(S2)
+    return B * C * D * (1.0 - E) * common + B * C * D * E * common * _atanc_scalar(S1)
+
+
 def _sinc(x):
     """sin(x)/x, 1 at 0 (numpy's sinc is sin(pi x)/(pi x))."""
     return np.sinc(np.asarray(x, dtype=float) / np.pi)
@@ -60,6 +94,13 @@ def _atanc(x):
     small = np.abs(x) < 1e-4
     xs = np.where(small, 1.0, x)
     return np.where(small, 1.0 - x * x / 3.0 + x**4 / 5.0, np.arctan(xs) / xs)
+
+
+def _finite_nonnegative(v) -> bool:
+    try:
+        return math.isfinite(v) and v >= 0
+    except TypeError:
+        return False
 
 
 @dataclass(frozen=True)
@@ -75,13 +116,24 @@ class Pacejka:
     D: float
     E: float = 0.0
 
+    def __post_init__(self):
+        # a negative B, C or D makes a negative cornering stiffness B C D and a sector of
+        # negative secant stiffnesses: every TS / LPV bound built on it is meaningless
+        for k in ("B", "C", "D"):
+            v = getattr(self, k)
+            if not _finite_nonnegative(v):
+                raise ObserverArgumentError(f"Pacejka.{k} must be a finite number >= 0, got {v!r}")
+        if not (np.ndim(self.E) == 0 and np.isfinite(self.E)):
+            raise ObserverArgumentError(f"Pacejka.E must be finite, got {self.E!r}")
+
     @property
     def cornering_stiffness(self) -> float:
         """Slope at zero slip, ``B C D`` [N/rad]."""
         return self.B * self.C * self.D
 
     def force(self, alpha):
-        """Steady-state lateral force [N] at slip angle ``alpha`` [rad] (any shape)."""
+        """Steady-state lateral force [N] at slip angle ``alpha`` [rad] (any shape): the numpy
+        twin of the compiled :func:`magic_formula` (a test checks them equal)."""
         a = np.asarray(alpha, dtype=float)
         B, C, D, E = self.B, self.C, self.D, self.E
         return D * np.sin(C * np.arctan(B * (1.0 - E) * a + E * np.arctan(B * a)))
@@ -90,7 +142,7 @@ class Pacejka:
         """``f(alpha) = F(alpha)/alpha`` [N/rad], Yacine 2015 eq. (16), exact at 0.
 
         Evaluated in the paper's product form so it is smooth through ``alpha = 0``
-        (where it equals ``B C D``).
+        (where it equals ``B C D``); numpy twin of :func:`magic_formula_secant`.
         """
         a = np.asarray(alpha, dtype=float)
         B, C, D, E = self.B, self.C, self.D, self.E
@@ -134,6 +186,12 @@ class LinearTire:
     """Linear tyre ``F = C_alpha * alpha`` [N], ``C_alpha`` in N/rad."""
 
     C_alpha: float
+
+    def __post_init__(self):
+        v = self.C_alpha
+        if not _finite_nonnegative(v):
+            raise ObserverArgumentError(f"LinearTire.C_alpha must be a finite number >= 0 N/rad, "
+                                        f"got {v!r}")
 
     @property
     def cornering_stiffness(self) -> float:

@@ -44,6 +44,11 @@ import tomllib
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.tires import LinearTire, Pacejka
 
+#: Index of each noise parameter in :meth:`KalmanTuning.theta` (the vector the Kalman
+#: kernels of :mod:`vehicle_observers.baselines.kalman` read)
+Q_VY, Q_R, Q_B, R_R, R_AY = range(5)
+N_THETA = 5
+
 
 @dataclass(frozen=True)
 class KalmanTuning:
@@ -64,13 +69,18 @@ class KalmanTuning:
     source: str = field(default="sensor-spec defaults", compare=False)
 
     def theta(self) -> np.ndarray:
-        return np.array([self.q_vy, self.q_r, self.q_b, self.R_r, self.R_ay], dtype=float)
+        """The packed vector the Kalman kernels read, laid out by :data:`Q_VY`, :data:`Q_R`,
+        :data:`Q_B`, :data:`R_R`, :data:`R_AY`."""
+        th = np.empty(N_THETA)
+        th[Q_VY], th[Q_R], th[Q_B], th[R_R], th[R_AY] = (self.q_vy, self.q_r, self.q_b,
+                                                          self.R_r, self.R_ay)
+        return th
 
     @classmethod
     def from_theta(cls, th, source="", P0=(1.0, 0.01, 1.0)):
         th = [float(v) for v in th]
-        return cls(q_vy=th[0], q_r=th[1], q_b=th[2], R_r=th[3], R_ay=th[4], P0=tuple(P0),
-                   source=source)
+        return cls(q_vy=th[Q_VY], q_r=th[Q_R], q_b=th[Q_B], R_r=th[R_R], R_ay=th[R_AY],
+                   P0=tuple(P0), source=source)
 
 
 

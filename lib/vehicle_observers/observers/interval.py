@@ -6,32 +6,11 @@ lateral velocity and yaw rate using Switched T-S Fuzzy Interval Observer", GTAA 
 
 Model
 -----
-LPV bicycle (3)-(4), state ``x = [v_y (m/s), r (rad/s)]``, input ``u = delta_f`` (rad,
-road-wheel), output ``y = C x = r`` (yaw-rate gyro), ``C = [0, 1]``::
-
-    A(rho, xi) = [[-(c_f+c_r)/(m v_x),           (c_r l_r - c_f l_f)/(m v_x) - v_x],
-                  [(c_r l_r - c_f l_f)/(I_z v_x), -(c_r l_r^2 + c_f l_f^2)/(I_z v_x)]]
-    B(xi)      = [c_f/m, c_f l_f/I_z]^T
-
-with the measured scheduling vector ``rho = [1/v_x, v_x]`` and the unmeasured stiffness
-``xi = [c_r, c_f]`` (N/rad) in a known box ``Xi`` (Assumption 3; +-10 % in the slides).
-
-Switched TS form (5)-(7): the speed axis is cut into bands (switching law (22); the
-slides use (0, 6], (6, 11], (11, 16.6] m/s). In band ``i`` the premises ``1/v_x`` and
-``v_x`` are bounded by the band edges, and since ``A`` is affine in each premise, the
-sector-nonlinearity TS form with 4 vertices ``A_i^j(xi) = A(rho_i^j, xi)`` is exact
-(:mod:`vehicle_observers.models.ts` convention: premise order ``(1/v_x, v_x)``, bit 0 = upper
-bound, so vertex ``j = 0..3`` is ``(1/v_min, v_max), (1/v_min, v_min), (1/v_max, v_max),
-(1/v_max, v_min)``; the printed gains' pattern (``L^1, L^3`` more negative than ``L^2,
-L^4`` in every mode) is consistent with ``v_x`` being the fast index). The polarity of
-``1/v_x`` is not printed: ``SwitchedIntervalModel(..., inv_vx_upper_first=False)`` swaps it
-(vertices 1-2 at ``1/v_max``); :mod:`vehicle_observers_papers.ifqir_2017.constants` uses that one (closer
-to the printed gains). Vertex order only relabels the LMI unknowns; the observer kernel
-always receives its arrays in the standard order (``vertex_perm``).
-
-Element-wise bounds (Assumption 3): every entry of ``A(rho, xi)`` and ``B(xi)`` is affine
-in ``xi`` for fixed ``rho``, so its exact range over the box is reached at a corner and is
-computed from the signs of the coefficients (:func:`elementwise_bounds`), not by sampling.
+The LPV bicycle (3)-(4) with the stiffness box of Assumption 3, its switched TS form (5)-(7)
+and the element-wise bounds ``A^{j-}, A^{j+}, B^-, B^+`` are in
+:mod:`vehicle_observers.models.uncertain_bicycle` (:class:`SwitchedIntervalModel`); state
+``x = [v_y (m/s), r (rad/s)]``, input ``delta_f`` (rad), output ``y = C x = r``,
+``C = [0, 1]``.
 
 Interval observer (11), reconstructed
 -------------------------------------
@@ -60,7 +39,8 @@ i.e. ``h max|diag| <= 1``, which :func:`run_interval_observer` enforces, and one
 sample, because ``y_k = C x_k`` is only known at the samples (with substeps the held ``y``
 lags the moving ``C x``). The design's ``epsilon <= 1/T_s`` in (20) gives both. The
 guarantee is then exact (up to rounding) for the Euler-discretised LPV model sampled at
-``T_s`` (:func:`simulate_lpv`); for the continuous-time model it holds up to the Euler
+``T_s`` (:func:`~vehicle_observers.models.uncertain_bicycle.simulate_lpv`); for the
+continuous-time model it holds up to the Euler
 discretisation error (a test checks a 30 s RK4 truth).
 
 LMI design, Theorem 2 (16)-(21)
@@ -91,255 +71,37 @@ guarantee does not depend on either. (v) One ``gamma_i`` per mode, minimising
 ``sum_i gamma_i`` (one shared gamma only optimises the worst mode). (vi) A strictness margin
 ``lmi_eps`` (1e-2) is imposed on (17)-(19); otherwise min gamma sits on the boundary and the
 certified eigenvalue margins are ~1e-7.
+
+Observer class: :class:`IntervalObserver` (the contract of
+:mod:`vehicle_observers.core.protocol`: readable Euler step of :func:`implemented_rhs`,
+compiled loop :func:`_interval_loop`). The check of the slides' printed solution, the
+paper's experiments, metrics and figures are in :mod:`vehicle_observers_papers.ifqir_2017`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
-from vehicle_observers.design.lmi import LMIDesign, LMISolution, bmat
-from vehicle_observers.models.ts import memberships, vertex_bits
+from vehicle_observers.core.errors import CertificationError, ObserverArgumentError
+from vehicle_observers.core.protocol import ObserverBase, Trajectory, check_sample_period
+from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat
+from vehicle_observers.models.uncertain_bicycle import (
+    N_STATE,
+    Z_INV_VX,
+    Z_VX,
+    SwitchedIntervalModel,
+    check_series,
+)
 
-N_STATE = 2
-C_OUT = np.array([[0.0, 1.0]])
-
-
-# ------------------------------------------------------------------ vehicle / LPV model ----
-@dataclass(frozen=True)
-class UncertainBicycle:
-    """Linear bicycle (3) with a box of cornering stiffness (Assumption 3).
-
-    m [kg], I_z [kg m^2], l_f / l_r [m] CG to front / rear axle, c_f0 / c_r0 nominal axle
-    cornering stiffness [N/rad], ``rel_unc`` the relative half-width of the box
-    (``c in [(1 - rel_unc) c_0, (1 + rel_unc) c_0]``; 0.10 in the slides).
-    """
-
-    m: float
-    I_z: float
-    l_f: float
-    l_r: float
-    c_f0: float
-    c_r0: float
-    rel_unc: float = 0.10
-    name: str = field(default="vehicle", compare=False)
-
-    def __post_init__(self):
-        for k in ("m", "I_z", "l_f", "l_r", "c_f0", "c_r0"):
-            v = getattr(self, k)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"UncertainBicycle.{k} must be finite and > 0, got {v}")
-        if not (0.0 <= self.rel_unc < 1.0):
-            raise ValueError(f"rel_unc must be in [0, 1), got {self.rel_unc}")
-
-    @property
-    def xi0(self) -> np.ndarray:
-        """Nominal ``xi_0 = [c_r0, c_f0]`` (N/rad), the slides' ordering of (4)."""
-        return np.array([self.c_r0, self.c_f0])
-
-    @property
-    def xi_box(self) -> np.ndarray:
-        """(2, 2) array ``[[c_r^-, c_r^+], [c_f^-, c_f^+]]`` [N/rad]."""
-        x0 = self.xi0
-        return np.column_stack([x0 * (1 - self.rel_unc), x0 * (1 + self.rel_unc)])
-
-    def max_metzler_uncertainty(self) -> float:
-        """Largest ``rel_unc`` for which ``c_r l_r - c_f l_f > 0`` on the whole box.
-
-        Entry (2, 1) of ``A - L C`` does not depend on ``L`` (``C = [0, 1]``); it is
-        ``(c_r l_r - c_f l_f)/(I_z v_x)``, so the Metzler property needs an understeering
-        vehicle on the whole box: ``(1-a) c_r0 l_r > (1+a) c_f0 l_f``.
-        """
-        a, b = self.c_r0 * self.l_r, self.c_f0 * self.l_f
-        return max((a - b) / (a + b), 0.0)
-
-
-def lpv_A(inv_vx, vx, xi, veh: UncertainBicycle) -> np.ndarray:
-    """``A(rho, xi)`` of (3)-(4) with the two premises ``1/v_x`` [s/m] and ``v_x`` [m/s]
-    treated independently (as in the TS form), ``xi = (c_r, c_f)``. Returns (2, 2)."""
-    cr, cf = xi
-    m, Iz, lf, lr = veh.m, veh.I_z, veh.l_f, veh.l_r
-    return np.array([
-        [-(cf + cr) / m * inv_vx, (cr * lr - cf * lf) / m * inv_vx - vx],
-        [(cr * lr - cf * lf) / Iz * inv_vx, -(cr * lr**2 + cf * lf**2) / Iz * inv_vx],
-    ])
-
-
-def lpv_B(xi, veh: UncertainBicycle) -> np.ndarray:
-    """``B(xi) = [c_f/m, c_f l_f/I_z]^T`` of (3), shape (2, 1)."""
-    cf = xi[1]
-    return np.array([[cf / veh.m], [cf * veh.l_f / veh.I_z]])
-
-
-def elementwise_bounds(fn, box) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact element-wise ``(lower, nominal, upper)`` of ``fn(xi)`` over the box.
-
-    ``fn`` must be affine in ``xi`` (checked at the box centre to 1e-9 relative); ``box``
-    (p, 2) rows ``[lo, hi]``. Each entry ``a_0 + sum_p d_p xi_p`` ranges over
-    ``a_0 + sum_p [min, max](d_p lo_p, d_p hi_p)``: attained at a corner (Assumption 3).
-    """
-    box = np.asarray(box, dtype=float)
-    mid = box.mean(axis=1)
-    half = (box[:, 1] - box[:, 0]) / 2
-    f0 = np.asarray(fn(mid), dtype=float)
-    lo = f0.copy()
-    hi = f0.copy()
-    for p in range(len(mid)):
-        e = mid.copy()
-        e[p] = mid[p] + half[p]
-        d = np.asarray(fn(e), dtype=float) - f0       # = coefficient * half-width
-        lo -= np.abs(d)
-        hi += np.abs(d)
-    # affinity check: value at a random-free corner must equal the linear prediction
-    corner = box[:, 1]
-    pred = f0.copy()
-    for p in range(len(mid)):
-        e = mid.copy()
-        e[p] = box[p, 1]
-        pred += np.asarray(fn(e), dtype=float) - f0
-    scale = max(float(np.abs(f0).max()), 1e-300)
-    if np.abs(np.asarray(fn(corner), dtype=float) - pred).max() > 1e-9 * scale:
-        raise ValueError("elementwise_bounds: fn is not affine in xi; corner bounds not exact")
-    return lo, f0, hi
-
-
-# ------------------------------------------------------------------ switching / TS ---------
-@dataclass(frozen=True)
-class SpeedBands:
-    """Switching law (22): mode ``i`` (0-based) is active when ``edges[i] < v_x <= edges[i+1]``
-    (the first band also includes its lower edge). ``edges`` [m/s], strictly increasing,
-    ``edges[0] > 0`` (the model divides by ``v_x``)."""
-
-    edges: tuple
-
-    def __post_init__(self):
-        e = np.asarray(self.edges, dtype=float)
-        if e.ndim != 1 or len(e) < 2:
-            raise ValueError(f"SpeedBands: need at least two edges, got {self.edges}")
-        if not np.all(np.isfinite(e)) or e[0] <= 0 or np.any(np.diff(e) <= 0):
-            raise ValueError(f"SpeedBands: edges must be finite, > 0 and strictly increasing "
-                             f"(m/s), got {self.edges}")
-
-    @property
-    def n_modes(self) -> int:
-        return len(self.edges) - 1
-
-    def mode(self, vx) -> np.ndarray:
-        """sigma(t) (0-based) for speeds ``vx`` (any shape); raises outside the bands."""
-        vx = np.asarray(vx, dtype=float)
-        e = np.asarray(self.edges)
-        bad = ~np.isfinite(vx) | (vx < e[0]) | (vx > e[-1])
-        if bad.any():
-            k = int(np.flatnonzero(bad.ravel())[0])
-            raise ValueError(f"v_x = {vx.ravel()[k]:.6g} m/s at sample {k} is outside the speed "
-                             f"bands [{e[0]:g}, {e[-1]:g}] m/s ({int(bad.sum())} samples); "
-                             "widen SpeedBands or pass clip_speed=True")
-        return np.clip(np.searchsorted(e, vx, side="left") - 1, 0, self.n_modes - 1)
-
-
-class SwitchedIntervalModel:
-    """Switched TS model (6) with the element-wise bounds of Assumption 3.
-
-    Attributes (K modes, 4 vertices, n = 2)
-    ---------------------------------------
-    zmin, zmax : (K, 2) premise bounds of ``(1/v_x, v_x)`` per band
-    A_lo, A_nom, A_hi : (K, 4, 2, 2) ``A_i^{j-}``, ``A_i^j(xi_0)``, ``A_i^{j+}``
-    B_lo, B_nom, B_hi : (2, 1)
-    """
-
-    def __init__(self, veh: UncertainBicycle, bands: SpeedBands, inv_vx_upper_first: bool = True):
-        self.veh = veh
-        self.bands = bands
-        self.inv_vx_upper_first = bool(inv_vx_upper_first)
-        e = np.asarray(bands.edges, dtype=float)
-        K = bands.n_modes
-        self.zmin = np.column_stack([1.0 / e[1:], e[:-1]])
-        self.zmax = np.column_stack([1.0 / e[:-1], e[1:]])
-        bits = vertex_bits(2)
-        if not self.inv_vx_upper_first:
-            bits = bits ^ np.array([1, 0])         # 1/v_x lower bound at vertices 1-2
-        #: model vertex j is vertex ``vertex_perm[j]`` of the standard order (bit 0 = upper)
-        self.vertex_perm = np.array([0, 1, 2, 3]) if self.inv_vx_upper_first \
-            else np.array([2, 3, 0, 1])
-        self.z_vertices = np.where(bits[None, :, :] == 0, self.zmax[:, None, :],
-                                   self.zmin[:, None, :])          # (K, 4, 2)
-        box = veh.xi_box
-        shape = (K, 4, N_STATE, N_STATE)
-        self.A_lo, self.A_nom, self.A_hi = (np.empty(shape) for _ in range(3))
-        for i in range(K):
-            for j in range(4):
-                s, v = self.z_vertices[i, j]
-                lo, nom, hi = elementwise_bounds(lambda xi, s=s, v=v: lpv_A(s, v, xi, veh), box)
-                self.A_lo[i, j], self.A_nom[i, j], self.A_hi[i, j] = lo, nom, hi
-        self.B_lo, self.B_nom, self.B_hi = elementwise_bounds(lambda xi: lpv_B(xi, veh), box)
-        self.C = C_OUT.copy()
-
-    @property
-    def n_modes(self) -> int:
-        return self.bands.n_modes
-
-    def memberships(self, vx):
-        """``(sigma, h)``: active mode (N,) and its 4 weights (N, 4) (7) at speeds ``vx``."""
-        vx = np.atleast_1d(np.asarray(vx, dtype=float))
-        sig = self.bands.mode(vx)
-        z = np.column_stack([1.0 / vx, vx])
-        h = memberships(z, self.zmin[sig], self.zmax[sig])
-        return sig, h[:, self.vertex_perm]
-
-    def membership_rate_bounds(self, accel_max: float) -> np.ndarray:
-        """``phi_i^k`` of (16) from ``|dv_x/dt| <= accel_max`` [m/s^2]; shape (K, 4).
-
-        ``h^k = w_s w_v`` with ``w_s`` affine in ``1/v_x`` and ``w_v`` in ``v_x``, so
-        ``|dh/dt| <= |dw_s/dt| + |dw_v/dt| <= a (v_max / v_min + 1) / (v_max - v_min)``.
-        """
-        if not (np.isfinite(accel_max) and accel_max >= 0):
-            raise ValueError(f"accel_max must be finite and >= 0 m/s^2, got {accel_max}")
-        vmin, vmax = self.zmin[:, 1], self.zmax[:, 1]
-        phi = accel_max * (vmax / vmin + 1.0) / (vmax - vmin)
-        return np.repeat(phi[:, None], 4, axis=1)
-
-    def check_metzler_feasible(self):
-        """Raise :class:`InfeasibleDesign` if an L-independent off-diagonal of ``A^{j-}`` is
-        negative (with ``C = [0, 1]`` column 1 of ``A - L C`` cannot be changed by ``L``)."""
-        for i in range(self.n_modes):
-            for j in range(4):
-                a21 = self.A_lo[i, j, 1, 0]
-                if a21 < 0:
-                    raise InfeasibleDesign(
-                        f"Metzler condition (20) impossible in mode {i + 1}, vertex {j + 1}: "
-                        f"entry (2,1) of A^- = {a21:.4g} < 0 and C = [0 1] leaves column 1 "
-                        f"unchanged (needs c_r l_r > c_f l_f on the whole stiffness box; "
-                        f"rel_unc = {self.veh.rel_unc:g} > "
-                        f"{self.veh.max_metzler_uncertainty():.4g} allowed)",
-                        lmi=f"Metzler[{i + 1},{j + 1}]", violation=-a21)
-
-    def check_diagonal_shift(self, epsilon: float):
-        """Raise :class:`InfeasibleDesign` if (20)'s diagonal part cannot hold: entry (1,1)
-        of ``A^- - L C`` is ``A^-_11 = -(c_f+c_r)^+/(m v_x)`` whatever ``L`` (``C = [0 1]``)."""
-        for i in range(self.n_modes):
-            for j in range(4):
-                a11 = self.A_lo[i, j, 0, 0]
-                if a11 < -epsilon:
-                    raise InfeasibleDesign(
-                        f"(20) diagonal impossible in mode {i + 1}, vertex {j + 1}: entry (1,1) "
-                        f"of A^- = {a11:.4g} < -epsilon = {-epsilon:g} and L cannot change it "
-                        f"(C = [0 1]); raise epsilon above {-a11:.4g} 1/s or the lowest speed "
-                        f"band edge ({self.bands.edges[0]:g} m/s)",
-                        lmi=f"diag[{i + 1},{j + 1}] (20)", violation=-epsilon - a11)
-
-    def check_detectable(self):
-        """Assumption 1: (A^{j+}, C) observable for every mode/vertex (entry (2,1) != 0)."""
-        for i in range(self.n_modes):
-            for j in range(4):
-                O = np.vstack([self.C, self.C @ self.A_hi[i, j]])
-                if np.linalg.matrix_rank(O) < N_STATE:
-                    raise InfeasibleDesign(f"Assumption 1 fails: (A^+, C) not observable in "
-                                           f"mode {i + 1}, vertex {j + 1}")
+#: the state ``[v_y, r]`` in drive-log schema names
+STATE_NAMES = ("vy_mps", "yaw_rate_radps")
+#: largest relative spread of the sample period the fixed-step observer accepts
+DT_RTOL = 1e-3
 
 
 # ------------------------------------------------------------------ Theorem 2 LMI ----------
@@ -358,6 +120,13 @@ class IntervalDesign:
     metzler_margins: np.ndarray      # (K, 4) min off-diagonal of A^{j-} - L^j C
     solve_time: float
     gammas: np.ndarray | None = None   # (K,) per-mode gamma_i
+
+    @property
+    def certificate(self) -> Certificate | None:
+        """The LMI certificate of (17)-(20) (eigenvalues / entries of the numeric solution,
+        independent of the solver), ``None`` for a design without a solution. The Metzler
+        guarantee is re-checked separately (:attr:`metzler_margins`)."""
+        return self.solution.certificate if self.solution else None
 
     @property
     def lmi_margin(self) -> float:
@@ -426,7 +195,7 @@ def certify_metzler(model: SwitchedIntervalModel, L: np.ndarray, name: str = "de
     return metzler_margins(model, L)
 
 
-def _add_theorem2_iss(d: LMIDesign, model: SwitchedIntervalModel, phi: np.ndarray,
+def add_theorem2_iss(d: LMIDesign, model: SwitchedIntervalModel, phi: np.ndarray,
                       eps_decay: float, p_min: float, per_mode_gamma: bool = True):
     """Add ``M_i``, ``gamma`` and the LMIs (17)-(19) of Theorem 2 to ``d``, whose variables
     (or fixed values) ``P{i}{j}`` (diagonal) and ``W{i}{j}`` must already exist. Returns
@@ -457,91 +226,6 @@ def _add_theorem2_iss(d: LMIDesign, model: SwitchedIntervalModel, phi: np.ndarra
     return gname
 
 
-def min_epsilon_shift(model: SwitchedIntervalModel, L) -> np.ndarray:
-    """Smallest ``epsilon`` of (20) that gains ``L`` (K, 4, 2[, 1]) satisfy, per mode (K,)
-    [1/s]: the diagonal part of (20) is ``P (A^- - L C)_aa + epsilon P_aa >= 0`` (``P``
-    diagonal positive), i.e. ``epsilon >= max_{j,a} -(A_i^{j-} - L_i^j C)_aa``."""
-    L = np.asarray(L, dtype=float)
-    L = L[..., None] if L.ndim == 3 else L
-    if L.shape != (model.n_modes, 4, N_STATE, 1):
-        raise ValueError(f"L must be ({model.n_modes}, 4, 2) or (..., 1), got {L.shape}")
-    D = np.diagonal(model.A_lo - L @ model.C, axis1=2, axis2=3)
-    return (-D).max(axis=(1, 2))
-
-
-@dataclass
-class PrintedCertificate:
-    """Theorem 2 checked for a given solution (``P`` diagonals (K, 4, 2), ``L`` (K, 4, 2))
-    held fixed, each mode rescaled to ``min diag P_i^j = p_min`` (the LMIs are homogeneous).
-
-    gammas (K,) : smallest ``gamma_i`` of (19) over ``M_i`` (certified, like any design);
-    metzler_margins (K, 4) : smallest off-diagonal of ``A^- - L C`` (>= 0: Theorem 1 holds);
-    min_epsilon (K,) [1/s] : smallest (20) shift the gains satisfy (:func:`min_epsilon_shift`);
-    solution : the certified LMI solution (margins of (17)-(19)).
-    """
-
-    gammas: np.ndarray
-    metzler_margins: np.ndarray
-    min_epsilon: np.ndarray
-    solution: LMISolution
-    scale: np.ndarray
-
-    @property
-    def lmi_margin(self) -> float:
-        return self.solution.certificate.min_margin
-
-
-def certify_solution(model: SwitchedIntervalModel, P_diag, L, eps_decay: float = 1.0,
-                     accel_max: float = 3.0, p_min=1.0, lmi_eps: float = 1e-2,
-                     name: str = "Theorem 2 with P, W = P L fixed") -> PrintedCertificate:
-    """Certify a given (e.g. printed) Theorem 2 solution on ``model``: with ``P_i^j``
-    (diagonals, (K, 4, 2)) and ``W_i^j = P_i^j L_i^j`` held fixed, solve (18)-(19) for
-    ``M_i``, ``gamma_i`` (min sum gamma_i), certify (17)-(19) from the eigenvalues, and
-    report the Metzler margins and the smallest ``epsilon`` of (20). Raises
-    :class:`InfeasibleDesign` when (18)-(19) have no solution for these ``P``, ``L``.
-    ``p_min`` (scalar or (K,)): the smallest diagonal of ``P_i^j`` after rescaling mode i."""
-    P_diag = np.asarray(P_diag, dtype=float)
-    L = np.asarray(L, dtype=float)
-    K = model.n_modes
-    if P_diag.shape != (K, 4, N_STATE) or np.any(P_diag <= 0):
-        raise ValueError(f"P_diag must be positive ({K}, 4, 2), got shape {P_diag.shape}")
-    if L.shape != (K, 4, N_STATE):
-        raise ValueError(f"L must be ({K}, 4, 2), got shape {L.shape}")
-    scale = np.asarray(p_min, dtype=float) / P_diag.min(axis=(1, 2))
-    Ps = P_diag * scale[:, None, None]
-    d = LMIDesign(name, eps=lmi_eps)
-    for i in range(K):
-        for j in range(4):
-            d.fixed(f"P{i}{j}", np.diag(Ps[i, j]))
-            d.fixed(f"W{i}{j}", (Ps[i, j] * L[i, j])[:, None])
-    phi = model.membership_rate_bounds(accel_max)
-    gname = _add_theorem2_iss(d, model, phi, eps_decay, 0.0)   # (17) as printed: P > 0
-    sol = d.solve(objective=lambda V: sum(V[gname(i)] for i in range(K)))
-    return PrintedCertificate(np.array([float(sol[gname(i)]) for i in range(K)]),
-                              metzler_margins(model, L[..., None]),
-                              min_epsilon_shift(model, L), sol, scale)
-
-
-def settling_time(t, w, w_ref, frac: float = 0.02) -> float:
-    """Convergence time of an interval width from its initial box: the first time [s]
-    (from ``t[0]``) after which ``|w - w_ref| <= frac * |w[0] - w_ref[0]|`` at every later
-    sample, ``w_ref`` being the width of the same observer started from a point box (same
-    inputs), so only the effect of the initial box is measured. ``inf`` if it never
-    settles within the record. ``t``, ``w``, ``w_ref`` (N,)."""
-    t, w, w_ref = (np.asarray(a, dtype=float) for a in (t, w, w_ref))
-    if not (t.shape == w.shape == w_ref.shape) or t.ndim != 1 or len(t) < 2:
-        raise ValueError(f"settling_time: t, w, w_ref must be 1-D of equal length, got "
-                         f"{t.shape}, {w.shape}, {w_ref.shape}")
-    if not 0 < frac < 1:
-        raise ValueError(f"settling_time: frac must be in (0, 1), got {frac}")
-    dev = np.abs(w - w_ref)
-    out = dev > frac * dev[0]
-    if not out.any():
-        return 0.0
-    k = int(np.flatnonzero(out)[-1])
-    return float("inf") if k == len(t) - 1 else float(t[k + 1] - t[0])
-
-
 def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
                     epsilon_shift: float | None = 1000.0, accel_max: float = 3.0,
                     phi: np.ndarray | None = None, p_min: float = 1.0,
@@ -570,6 +254,12 @@ def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
     Returns a certified :class:`IntervalDesign`; raises :class:`InfeasibleDesign` /
     :class:`CertificationError` (naming the LMI) otherwise.
     """
+    if not (np.ndim(eps_decay) == 0 and np.isfinite(eps_decay) and eps_decay > 0):
+        raise ObserverArgumentError(f"design_theorem2: eps_decay (decay rate of (19)) must be "
+                                    f"finite and > 0 [1/s], got {eps_decay!r}")
+    if epsilon_shift is not None and not (np.isfinite(epsilon_shift) and epsilon_shift > 0):
+        raise ObserverArgumentError(f"design_theorem2: epsilon_shift of (20) must be finite and "
+                                    f"> 0 [1/s] (or None), got {epsilon_shift!r}")
     model.check_detectable()
     model.check_metzler_feasible()
     if epsilon_shift is not None:
@@ -577,18 +267,16 @@ def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
     K, n = model.n_modes, N_STATE
     phi = model.membership_rate_bounds(accel_max) if phi is None else np.asarray(phi, float)
     if phi.shape != (K, 4) or np.any(phi < 0) or not np.all(np.isfinite(phi)):
-        raise ValueError(f"phi must be a finite nonnegative ({K}, 4) array, got shape "
+        raise ObserverArgumentError(f"phi must be a finite nonnegative ({K}, 4) array, got shape "
                          f"{phi.shape}")
-    if eps_decay <= 0 or (epsilon_shift is not None and epsilon_shift <= 0):
-        raise ValueError(f"need eps_decay > 0 and epsilon_shift > 0 (or None), got "
-                         f"{eps_decay}, {epsilon_shift}")
+
     C = model.C
     d = LMIDesign(name, eps=lmi_eps)
     for i in range(K):
         for j in range(4):
             d.diagonal(f"P{i}{j}", n)
             d.matrix(f"W{i}{j}", (n, C.shape[0]))
-    gname = _add_theorem2_iss(d, model, phi, eps_decay, p_min, per_mode_gamma)
+    gname = add_theorem2_iss(d, model, phi, eps_decay, p_min, per_mode_gamma)
     for i in range(K):
         for j in range(4):
             Am = model.A_lo[i, j]
@@ -670,8 +358,8 @@ def _mode_weights(v, edges, zmin, zmax, h):
     while i < K - 1 and v > edges[i + 1]:
         i += 1
     s = 1.0 / v
-    ws = (s - zmin[i, 0]) / (zmax[i, 0] - zmin[i, 0])    # weight of the 1/v_x upper bound
-    wv = (v - zmin[i, 1]) / (zmax[i, 1] - zmin[i, 1])
+    ws = (s - zmin[i, Z_INV_VX]) / (zmax[i, Z_INV_VX] - zmin[i, Z_INV_VX])   # 1/v_x upper bound
+    wv = (v - zmin[i, Z_VX]) / (zmax[i, Z_VX] - zmin[i, Z_VX])
     h[0] = ws * wv
     h[1] = ws * (1.0 - wv)
     h[2] = (1.0 - ws) * wv
@@ -743,117 +431,25 @@ def _interval_loop(vx, u_lo, u_hi, y, y_noise, x0_lo, x0_hi, substeps, dt, edges
     return X_lo, X_hi, sig
 
 
-@njit(cache=True)
-def _lpv_loop(x0, vx, u, xi, substeps, dt, m, Iz, lf, lr, rk4):
-    N = vx.shape[0]
-    X = np.empty((N, 2))
-    x = x0.copy()
-    hs = dt / substeps
-    k1 = np.empty(2)
-    k2 = np.empty(2)
-    k3 = np.empty(2)
-    k4 = np.empty(2)
-    tmp = np.empty(2)
-    for k in range(N):
-        X[k] = x
-        cr, cf, v = xi[k, 0], xi[k, 1], vx[k]
-        a11 = -(cf + cr) / (m * v)
-        a12 = (cr * lr - cf * lf) / (m * v) - v
-        a21 = (cr * lr - cf * lf) / (Iz * v)
-        a22 = -(cr * lr * lr + cf * lf * lf) / (Iz * v)
-        b1 = cf / m * u[k]
-        b2 = cf * lf / Iz * u[k]
-        for _ in range(substeps):
-            if not rk4:
-                d0 = a11 * x[0] + a12 * x[1] + b1
-                d1 = a21 * x[0] + a22 * x[1] + b2
-                x[0] += hs * d0
-                x[1] += hs * d1
-            else:
-                k1[0] = a11 * x[0] + a12 * x[1] + b1
-                k1[1] = a21 * x[0] + a22 * x[1] + b2
-                for q in range(2):
-                    tmp[q] = x[q] + 0.5 * hs * k1[q]
-                k2[0] = a11 * tmp[0] + a12 * tmp[1] + b1
-                k2[1] = a21 * tmp[0] + a22 * tmp[1] + b2
-                for q in range(2):
-                    tmp[q] = x[q] + 0.5 * hs * k2[q]
-                k3[0] = a11 * tmp[0] + a12 * tmp[1] + b1
-                k3[1] = a21 * tmp[0] + a22 * tmp[1] + b2
-                for q in range(2):
-                    tmp[q] = x[q] + hs * k3[q]
-                k4[0] = a11 * tmp[0] + a12 * tmp[1] + b1
-                k4[1] = a21 * tmp[0] + a22 * tmp[1] + b2
-                for q in range(2):
-                    x[q] += hs / 6.0 * (k1[q] + 2 * k2[q] + 2 * k3[q] + k4[q])
-    return X
-
-
-# ------------------------------------------------------------------ Python front ends ------
-def _vec(name, a, N=None):
-    a = np.ascontiguousarray(a, dtype=float)
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be a 1-D array (N,), got shape {a.shape}")
-    if N is not None and len(a) != N:
-        raise ValueError(f"{name} has {len(a)} samples, expected {N} (same as vx)")
-    if not np.all(np.isfinite(a)):
-        k = int(np.argmax(~np.isfinite(a)))
-        raise ValueError(f"{name}[{k}] = {a[k]} is not finite")
-    return a
-
-
-def simulate_lpv(veh: UncertainBicycle, x0, delta, vx, xi, dt: float, substeps: int = 1,
-                 method: str = "euler") -> np.ndarray:
-    """Simulate the LPV bicycle (3)-(4) with a stiffness trajectory ``xi`` (N, 2) = (c_r, c_f)
-    [N/rad] (or (2,) constant), steering ``delta`` and speed ``vx`` (N,) held over each
-    sample of ``dt`` s. ``method``: ``"euler"`` (same scheme as the observer: the enclosure
-    guarantee is exact for it) or ``"rk4"``. Returns X (N, 2) = [v_y, r] at the samples."""
-    vx = _vec("vx", vx)
-    N = len(vx)
-    delta = _vec("delta", delta, N)
-    if np.any(vx <= 0):
-        k = int(np.argmax(vx <= 0))
-        raise ValueError(f"vx must be > 0 m/s (the model divides by it): vx[{k}] = {vx[k]}")
-    xi = np.asarray(xi, dtype=float)
-    xi = np.ascontiguousarray(np.broadcast_to(xi, (N, 2)) if xi.shape == (2,) else xi)
-    if xi.shape != (N, 2):
-        raise ValueError(f"xi must be (2,) or ({N}, 2) = (c_r, c_f), got {xi.shape}")
-    if method not in ("euler", "rk4"):
-        raise ValueError(f"method must be 'euler' or 'rk4', got {method!r}")
-    if dt <= 0 or int(substeps) < 1:
-        raise ValueError(f"need dt > 0 and substeps >= 1, got {dt}, {substeps}")
-    return _lpv_loop(np.asarray(x0, dtype=float).copy(), vx, delta, xi, int(substeps),
-                     float(dt), veh.m, veh.I_z, veh.l_f, veh.l_r, method == "rk4")
-
-
-@dataclass
-class IntervalResult:
-    """Bounds (N, 2) on ``[v_y, r]`` at the samples, active mode (N,) (0-based), Euler
-    substeps used and the number of speed samples clipped into the bands."""
-
-    x_lo: np.ndarray
-    x_hi: np.ndarray
-    sigma: np.ndarray
-    substeps: int
-    n_clipped: int
-
-    @property
-    def width(self) -> np.ndarray:
-        return self.x_hi - self.x_lo
-
-
 def euler_substeps(design: IntervalDesign, dt: float) -> int:
     """Smallest Euler substep count with ``h max|diag(A^- - L C)| <= 1`` (the discrete-time
     positivity ``I + h M >= 0``). It is 1 when ``epsilon_shift <= 1/dt``, which is what the
     sampled guarantee needs: with one step per sample the output injection ``L y_k`` uses
     the measured ``y_k = C x_k`` exactly; with more substeps ``y`` is held between samples
     while ``C x`` moves, and the enclosure is then only approximate (O(h L |dr/dt|))."""
+    _check_dt(dt, "euler_substeps")
     return max(1, int(math.ceil(dt * design.max_diag_rate() - 1e-9)))
+
+
+def _check_dt(dt, who):
+    if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0):
+        raise ObserverArgumentError(f"{who}: dt (sample period) must be finite and > 0 s, got "
+                                    f"{dt!r}")
 
 
 def run_interval_observer(design: IntervalDesign, dt: float, vx, u_lo, u_hi, y, x0_lo, x0_hi,
                           y_noise: float = 0.0, substeps: int | None = None,
-                          clip_speed: bool = False) -> IntervalResult:
+                          clip_speed: bool = False, t=None) -> IntervalRun:
     """Run the switched interval observer (11) over a log sampled every ``dt`` s.
 
     vx [m/s], u_lo / u_hi bounds of the road-wheel steering [rad], y measured yaw rate
@@ -861,21 +457,26 @@ def run_interval_observer(design: IntervalDesign, dt: float, vx, u_lo, u_hi, y, 
     ``|y - r|`` [rad/s]. ``substeps=None`` picks :func:`euler_substeps`; a given value must
     satisfy ``h max|diag| <= 1`` (discrete positivity) or a ValueError says so.
     ``clip_speed=True`` saturates speeds outside the bands (the guarantee is void there;
-    counted in ``n_clipped``) instead of raising.
+    counted in ``n_clipped``) instead of raising. ``t`` (N,) [s]: the sample times of the
+    result (default ``dt * arange(N)``). Returns an :class:`IntervalRun`. Bad arguments raise
+    :class:`~vehicle_observers.core.errors.ObserverArgumentError` naming them.
     """
-    vx = _vec("vx", vx)
+    _check_dt(dt, "run_interval_observer")
+    vx = check_series("vx", vx)
     N = len(vx)
-    u_lo, u_hi, y = (_vec(nm, a, N) for nm, a in (("u_lo", u_lo), ("u_hi", u_hi), ("y", y)))
+    u_lo, u_hi, y = (check_series(nm, a, N) for nm, a in (("u_lo", u_lo), ("u_hi", u_hi),
+                                                          ("y", y)))
     if np.any(u_lo > u_hi):
         k = int(np.argmax(u_lo > u_hi))
-        raise ValueError(f"u_lo[{k}] = {u_lo[k]} > u_hi[{k}] = {u_hi[k]}")
+        raise ObserverArgumentError(f"u_lo[{k}] = {u_lo[k]} > u_hi[{k}] = {u_hi[k]}")
     x0_lo = np.asarray(x0_lo, dtype=float).reshape(-1)
     x0_hi = np.asarray(x0_hi, dtype=float).reshape(-1)
-    if x0_lo.shape != (2,) or x0_hi.shape != (2,) or np.any(x0_lo > x0_hi):
-        raise ValueError(f"initial box must be two (2,) vectors with x0_lo <= x0_hi, got "
-                         f"{x0_lo}, {x0_hi}")
+    if x0_lo.shape != (2,) or x0_hi.shape != (2,) or np.any(x0_lo > x0_hi) \
+            or not np.all(np.isfinite(x0_lo) & np.isfinite(x0_hi)):
+        raise ObserverArgumentError(f"initial box must be two finite (2,) vectors with x0_lo "
+                                    f"<= x0_hi, got {x0_lo}, {x0_hi}")
     if not (np.isfinite(y_noise) and y_noise >= 0):
-        raise ValueError(f"y_noise must be >= 0 rad/s, got {y_noise}")
+        raise ObserverArgumentError(f"y_noise must be >= 0 rad/s, got {y_noise}")
     edges = np.asarray(design.model.bands.edges, dtype=float)
     n_clip = int(np.sum((vx < edges[0]) | (vx > edges[-1])))
     if clip_speed:
@@ -885,8 +486,10 @@ def run_interval_observer(design: IntervalDesign, dt: float, vx, u_lo, u_hi, y, 
     rate = design.max_diag_rate()
     if substeps is None:
         substeps = euler_substeps(design, dt)
+    if int(substeps) != substeps or substeps < 1:
+        raise ObserverArgumentError(f"substeps must be an integer >= 1, got {substeps!r}")
     if dt / substeps * rate > 1.0:
-        raise ValueError(f"Euler step {dt / substeps:.3g} s too long: h max|diag(A^- - LC)| = "
+        raise ObserverArgumentError(f"Euler step {dt / substeps:.3g} s too long: h max|diag(A^- - LC)| = "
                          f"{dt / substeps * rate:.3g} > 1 breaks the discrete positivity; use "
                          f"substeps >= {math.ceil(dt * rate)}")
     m = design.model
@@ -894,34 +497,25 @@ def run_interval_observer(design: IntervalDesign, dt: float, vx, u_lo, u_hi, y, 
     Mp = np.ascontiguousarray((m.A_hi - design.L @ m.C)[:, perm])
     Mm = np.ascontiguousarray((m.A_lo - design.L @ m.C)[:, perm])
     Lg = np.ascontiguousarray(design.L[..., 0][:, perm])
+    t0 = time.perf_counter()
     xl, xh, sig = _interval_loop(vx, u_lo, u_hi, y, float(y_noise), x0_lo, x0_hi, int(substeps),
                                  float(dt), edges, m.zmin, m.zmax, Mp, Mm, Lg,
                                  np.ascontiguousarray(m.B_lo[:, 0]),
                                  np.ascontiguousarray(m.B_hi[:, 0]))
-    return IntervalResult(xl, xh, sig, int(substeps), n_clip)
+    sec = time.perf_counter() - t0
+    t = dt * np.arange(N) if t is None else t
+    return IntervalRun(t, 0.5 * (xl + xh), STATE_NAMES, xl, xh, sec, estimator="interval (11)",
+                       sigma=sig, substeps=int(substeps), n_clipped=n_clip)
 
 
-def slides_rhs(design: IntervalDesign, i: int, h, x_hi, x_lo, y, u_lo, u_hi):
-    """Right-hand sides of (11) exactly as printed (with ``A0`` the box-centre matrix and
-    ``B^+ u^+``, ``B^- u^-``), for one mode ``i`` and weights ``h`` (4,). Used by the tests to
-    check that the implemented form equals the slides' for ``u >= 0``."""
-    m = design.model
-    fh = np.zeros(2)
-    fl = np.zeros(2)
-    for j in range(4):
-        L = design.L[i, j]
-        Ap, A0 = m.A_hi[i, j], m.A_nom[i, j]
-        fh += h[j] * ((Ap - L @ m.C) @ x_hi + (L @ np.atleast_1d(y)).ravel()
-                      + (Ap - A0) @ (np.abs(x_hi) - x_hi))
-        fl += h[j] * ((Ap - L @ m.C) @ x_lo + (L @ np.atleast_1d(y)).ravel()
-                      - (Ap - A0) @ (np.abs(x_lo) + x_lo))
-    fh += m.B_hi[:, 0] * u_hi
-    fl += m.B_lo[:, 0] * u_lo
-    return fh, fl
-
-
-def implemented_rhs(design: IntervalDesign, i: int, h, x_hi, x_lo, y, u_lo, u_hi):
-    """The right-hand sides that :func:`run_interval_observer` integrates (numpy version)."""
+def implemented_rhs(design: IntervalDesign, i: int, h, x_hi, x_lo, y, u_lo, u_hi,
+                    y_noise: float = 0.0):
+    """The right-hand sides ``(f+, f-)`` of observer (11) that :func:`run_interval_observer`
+    integrates (readable numpy; module docstring): in mode ``i`` with weights ``h`` (4,),
+    ``f+ = M^+ pos(x+) - M^- neg(x+) + L_h y + |L_h| v_bar + max(B u)``,
+    ``f- = M^- pos(x-) - M^+ neg(x-) + L_h y - |L_h| v_bar + min(B u)``, ``M^{+-} =
+    sum_j h_j (A^{j+-} - L^j C)``, ``L_h = sum_j h_j L^j``, ``B u`` over the four corners of
+    ``[B^-, B^+] x [u^-, u^+]``, ``v_bar = y_noise`` the gyro noise bound."""
     m = design.model
     pos = lambda x: np.maximum(x, 0.0)
     neg = lambda x: np.maximum(-x, 0.0)
@@ -930,233 +524,143 @@ def implemented_rhs(design: IntervalDesign, i: int, h, x_hi, x_lo, y, u_lo, u_hi
     Lh = np.tensordot(h, design.L[i][..., 0], axes=1)
     prods = np.stack([m.B_lo[:, 0] * u_lo, m.B_lo[:, 0] * u_hi, m.B_hi[:, 0] * u_lo,
                       m.B_hi[:, 0] * u_hi])
-    fh = Mp @ pos(x_hi) - Mm @ neg(x_hi) + Lh * y + prods.max(axis=0)
-    fl = Mm @ pos(x_lo) - Mp @ neg(x_lo) + Lh * y + prods.min(axis=0)
+    fh = Mp @ pos(x_hi) - Mm @ neg(x_hi) + Lh * y + np.abs(Lh) * y_noise + prods.max(axis=0)
+    fl = Mm @ pos(x_lo) - Mp @ neg(x_lo) + Lh * y - np.abs(Lh) * y_noise + prods.min(axis=0)
     return fh, fl
 
 
-# ------------------------------------------------------------------ helpers ----------------
-def random_stiffness_trajectory(veh: UncertainBicycle, n: int, dt: float, seed: int = 0,
-                                corr_time: float = 1.0, corners: bool = False) -> np.ndarray:
-    """A seeded stiffness trajectory (n, 2) = (c_r, c_f) inside the box: a band-limited
-    random signal squashed by ``tanh`` (``corners=True``: a random corner held for a random
-    time, i.e. jumps between vertices of the box)."""
-    rng = np.random.default_rng(seed)
-    box = veh.xi_box
-    if corners:
-        out = np.empty((n, 2))
-        k = 0
-        while k < n:
-            length = max(1, int(rng.exponential(corr_time / dt)))
-            out[k:k + length] = box[np.arange(2), rng.integers(0, 2, size=2)]
-            k += length
-        return out
-    from scipy.signal import lfilter
+@dataclass(frozen=True, eq=False)
+class IntervalRun(Trajectory):
+    """A run of the interval observer: the :class:`~vehicle_observers.core.protocol.Trajectory`
+    with ``lo``/``hi`` (N, 2) the guaranteed bounds on ``[v_y, r]`` and ``x`` their midpoint,
+    plus ``sigma`` (N,) the active mode (0-based), the Euler ``substeps`` per sample and
+    ``n_clipped`` the number of speed samples clipped into the bands. ``x_lo``, ``x_hi`` and
+    ``width`` are views of (or computed from) ``lo``/``hi``."""
 
-    a = math.exp(-dt / corr_time)
-    w = rng.standard_normal((n, 2)) * math.sqrt(1 - a * a)
-    w[0] = rng.standard_normal(2)                     # stationary start
-    z = lfilter([1.0], [1.0, -a], w, axis=0)          # z_k = a z_{k-1} + w_k
-    s = np.tanh(1.5 * z)
-    return box[:, 0] + (s + 1) / 2 * (box[:, 1] - box[:, 0])
+    sigma: np.ndarray | None = None
+    substeps: int = 1
+    n_clipped: int = 0
 
+    @property
+    def x_lo(self) -> np.ndarray:
+        return self.lo
 
-def interval_metrics(res: IntervalResult, truth: np.ndarray, t: np.ndarray | None = None,
-                     t_skip: float = 0.0, tol: float = 0.0, mask=None,
-                     width_t_skip: float | None = None) -> dict:
-    """Enclosure rate of ``truth`` (N, 2) (NaN columns are skipped) and mean / max widths of
-    ``v_y`` [m/s] and ``r`` [rad/s], over samples with ``t >= t[0] + t_skip`` (and ``mask``
-    (N,) bool if given). ``max_excursion_*``: largest distance outside the interval.
-    ``width_t_skip`` (needs ``t``): widths only after this time, to leave out the decay of
-    the initial box."""
-    truth = np.asarray(truth, dtype=float)
-    sel = np.ones(len(truth), bool) if t is None else (t >= t[0] + t_skip)
-    if mask is not None:
-        sel = sel & np.asarray(mask, dtype=bool)
-    if not sel.any():
-        raise ValueError("interval_metrics: no sample selected (check t_skip / mask)")
-    wsel = sel
-    if width_t_skip is not None:
-        if t is None:
-            raise ValueError("interval_metrics: width_t_skip needs t")
-        wsel = sel & (t >= t[0] + width_t_skip)
-    out = {}
-    for c, nm in enumerate(("vy", "r")):
-        w = res.width[wsel, c]
-        out[f"width_mean_{nm}"] = float(w.mean())
-        out[f"width_max_{nm}"] = float(w.max())
-        x = truth[sel, c]
-        if np.all(np.isnan(x)):
-            continue
-        inside = (res.x_lo[sel, c] - tol <= x) & (x <= res.x_hi[sel, c] + tol)
-        out[f"enclosure_{nm}"] = float(inside.mean())
-        above = np.maximum(x - res.x_hi[sel, c], 0) + np.maximum(res.x_lo[sel, c] - x, 0)
-        out[f"max_excursion_{nm}"] = float(above.max())
-    return out
+    @property
+    def x_hi(self) -> np.ndarray:
+        return self.hi
+
+    @property
+    def width(self) -> np.ndarray:
+        return self.hi - self.lo
 
 
-def run_on_log(design: IntervalDesign, log, x0_lo, x0_hi, steer_noise: float = 0.0,
-               y_noise: float = 0.0, use_truth: bool = False, clip_speed: bool = False):
-    """Run the observer on a :class:`~vehicle_observers.data.logs.DriveLog`: measured ``vx``,
-    steering ``delta +- steer_noise`` [rad] and yaw rate ``y`` with ``|y - r| <= y_noise``.
-    ``use_truth=True`` takes the noise-free ``*_true`` channels of an emulated log instead."""
-    if use_truth:
-        for c in ("vx_true_mps", "delta_true_rad", "yaw_rate_true_radps"):
-            if c not in log.extra:
-                raise ValueError(f"{log.source or 'log'}: use_truth needs column {c!r}")
-        vx, d, y = (log.extra[c] for c in ("vx_true_mps", "delta_true_rad",
-                                           "yaw_rate_true_radps"))
-    else:
-        vx, d, y = log.vx, log.delta, log.yaw_rate
-    return run_interval_observer(design, log.dt, vx, d - steer_noise, d + steer_noise, y,
-                                 x0_lo, x0_hi, y_noise=y_noise, clip_speed=clip_speed)
+class IntervalObserver(ObserverBase):
+    """Ifqir 2017 switched interval observer (11) on the contract of
+    :mod:`vehicle_observers.core.protocol`.
 
+    ``design``: a certified :class:`IntervalDesign` (Theorem 2); ``dt`` [s] the fixed sample
+    period (``run`` checks ``t`` against it, relative :data:`DT_RTOL`); ``box0 = (lo, hi)``
+    (2,) each: the initial box is ``[x0 + lo, x0 + hi]`` around the initial estimate ``x0``
+    (default ``[0, y_0]``: ``v_y = 0`` and the measured yaw rate); ``steer_noise`` [rad]:
+    bound on the steering measurement error (``u^{+-} = delta +- steer_noise``);
+    ``y_noise`` [rad/s]: bound on ``|y - r|``; ``substeps``: Euler steps per sample
+    (``None``: :func:`euler_substeps`); ``clip_speed``: saturate speeds outside the bands
+    (the guarantee is void there) instead of raising.
 
-def share_in_box(stiffness, lo: float, hi: float, mask=None) -> float:
-    """Share of samples whose (secant) stiffness [N/rad] lies in ``[lo, hi]``."""
-    s = np.asarray(stiffness, dtype=float)
-    if mask is not None:
-        s = s[np.asarray(mask, bool)]
-    return float(np.mean((s >= lo) & (s <= hi)))
+    Inputs ``u = [v_x, delta]`` (N, 2), output ``y = [r]`` (N, 1); internal state ``z =
+    [x^-, x^+]`` (4,), estimate the midpoint, :meth:`bounds` the box. Sample ``k`` is
+    ``substeps`` Euler steps of :func:`implemented_rhs` with the inputs of sample ``k - 1``.
+    """
 
+    state_names = STATE_NAMES
+    input_names = ("vx_mps", "delta_roadwheel_rad")
+    output_names = ("yaw_rate_radps",)
 
-#: tableau-colorblind10 colours: switched / single-mode / third observer
-PALETTE = ("#006BA4", "#FF800E", "#595959", "#5F9ED1", "#C85200")
+    def __init__(self, design: IntervalDesign, dt: float, box0, steer_noise: float = 0.0,
+                 y_noise: float = 0.0, substeps: int | None = None, clip_speed: bool = False):
+        who = type(self).__name__
+        self.design = design
+        if not isinstance(self._des, IntervalDesign):
+            raise ObserverArgumentError(f"{who}: design must be an IntervalDesign, got "
+                                        f"{type(self._des).__name__}")
+        _check_dt(dt, who)
+        lo, hi = (np.asarray(b, dtype=float).reshape(-1) for b in box0)
+        if lo.shape != (2,) or hi.shape != (2,) or np.any(lo > hi) \
+                or not np.all(np.isfinite(lo) & np.isfinite(hi)):
+            raise ObserverArgumentError(f"{who}: box0 must be two finite (2,) offsets with lo <= "
+                                        f"hi, got {lo}, {hi}")
+        for name, v in (("steer_noise", steer_noise), ("y_noise", y_noise)):
+            if not (np.isfinite(v) and v >= 0):
+                raise ObserverArgumentError(f"{who}: {name} must be finite and >= 0, got {v!r}")
+        self.dt = float(dt)
+        self.box0 = (lo, hi)
+        self.steer_noise, self.y_noise = float(steer_noise), float(y_noise)
+        self.clip_speed = bool(clip_speed)
+        self.substeps = euler_substeps(self._des, dt) if substeps is None else substeps
+        if int(self.substeps) != self.substeps or self.substeps < 1:
+            raise ObserverArgumentError(f"{who}: substeps must be an integer >= 1, got "
+                                        f"{substeps!r}")
+        self.substeps = int(self.substeps)
 
+    @property
+    def _des(self) -> IntervalDesign:
+        """The design in the observer's own coordinates."""
+        return self.design
 
-def plot_inputs(t, vx, delta, sigma, bands: SpeedBands, title: str = ""):
-    """Steering, speed with the band edges, and sigma(t) (the slides' input figures)."""
-    import matplotlib.pyplot as plt
+    # ---- coordinates: identity here (see interval_coordinates) --------------------
+    def _to_z(self, lo, hi):
+        return lo, hi
 
-    from vehicle_observers.core.arrays import decimate
+    def _to_x(self, lo, hi):
+        return lo, hi
 
-    fig, ax = plt.subplots(3, 1, sharex=True, figsize=(9.0, 6.0))
-    tt, d, v, s = decimate(t, delta, vx, np.asarray(sigma) + 1, max_points=2000)
-    ax[0].plot(tt, np.degrees(d), color=PALETTE[0])
-    ax[0].set_ylabel(r"$\delta_f$ [deg]")
-    ax[1].plot(tt, v, color=PALETTE[0])
-    for e in bands.edges:
-        ax[1].axhline(e, color="0.5", ls=":", lw=0.8)
-    ax[1].set_ylabel("$v_x$ [m/s]")
-    ax[2].step(tt, s, where="post", color=PALETTE[0])
-    ax[2].set_ylabel(r"$\sigma(t)$ [mode]")
-    ax[2].set_yticks(range(1, bands.n_modes + 1))
-    ax[2].set_xlabel("$t$ [s]")
-    if title:
-        fig.suptitle(title)
-    return fig
+    def check_data(self, t, u, y, x0=None):
+        t, u, y, x0 = super().check_data(t, u, y, x0)
+        check_sample_period(t, self.dt, type(self).__name__, DT_RTOL)
+        return t, u, y, x0
 
+    def _box(self, y, x0):
+        x0 = np.array([0.0, y[0, 0]]) if x0 is None else np.asarray(x0, dtype=float)
+        return x0 + self.box0[0], x0 + self.box0[1]
 
-_STATES = (("v_y", "m/s"), ("r", "rad/s"))
+    def initial_state(self, t, u, y, x0=None):
+        return np.concatenate(self._to_z(*self._box(y, x0)))
 
+    def step(self, z, k, t, u, y):
+        """Explicit Euler of (11) (:func:`implemented_rhs`) over ``[t_{k-1}, t_k]`` in
+        ``substeps`` steps of ``dt / substeps``, with the mode, weights (7), steering bounds
+        and gyro of sample ``k - 1`` held."""
+        m = self._des.model
+        e = m.bands.edges
+        v = u[k - 1, 0]
+        if self.clip_speed:
+            v = min(max(v, e[0]), e[-1])
+        sig, h = m.memberships(v)
+        d = u[k - 1, 1]
+        zl, zh = z[:N_STATE], z[N_STATE:]
+        hs = self.dt / self.substeps
+        for _ in range(self.substeps):
+            fh, fl = implemented_rhs(self._des, int(sig[0]), h[0], zh, zl, y[k - 1, 0],
+                                     d - self.steer_noise, d + self.steer_noise, self.y_noise)
+            zl, zh = zl + hs * fl, zh + hs * fh
+        return np.concatenate([zl, zh])
 
-def _band(ax, tt, lo, hi, k, label):
-    col = PALETTE[k % len(PALETTE)]
-    ax.fill_between(tt, lo, hi, color=col, alpha=0.35 if k == 0 else 0.18, lw=0,
-                    label=label, zorder=2 - k)
-    ax.plot(tt, lo, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
-    ax.plot(tt, hi, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
+    def bounds(self, z):
+        return self._to_x(z[:N_STATE], z[N_STATE:])
 
+    def estimate(self, z):
+        lo, hi = self.bounds(z)
+        return 0.5 * (lo + hi)
 
-def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=None,
-                   truth_label: str = "truth", error_panel: bool = False):
-    """Interval estimates of v_y and r (``results = {label: IntervalResult}``) with the
-    reference (the slides' two result figures, stacked). ``error_panel=True`` adds, per
-    state, a panel with each observer's interval relative to the reference
-    (``x^- - x`` and ``x^+ - x``: the reference is enclosed where the band contains 0)."""
-    import matplotlib.pyplot as plt
-
-    from vehicle_observers.core.arrays import decimate
-
-    t = np.asarray(t)
-    sel = np.ones(len(t), bool) if tlim is None else (t >= tlim[0]) & (t <= tlim[1])
-    refs = (truth_vy, truth_r)
-    nrow = 4 if error_panel else 2
-    fig, ax = plt.subplots(nrow, 1, sharex=True, figsize=(9.0, 2.8 * nrow))
-    for c, (nm, unit) in enumerate(_STATES):
-        a = ax[2 * c] if error_panel else ax[c]
-        for k, (lab, res) in enumerate(results.items()):
-            tt, lo, hi = decimate(t[sel], res.x_lo[sel, c], res.x_hi[sel, c], max_points=2000)
-            _band(a, tt, lo, hi, k, f"$[{nm}^-, {nm}^+]$ {lab}")
-        ref = refs[c]
-        if ref is not None:
-            tt, rr = decimate(t[sel], np.asarray(ref)[sel], max_points=2000)
-            a.plot(tt, rr, color="k", lw=0.9, label=truth_label, zorder=4)
-        a.set_ylabel(f"${nm}$ [{unit}]")
-        a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
-        if error_panel and ref is not None:
-            e = ax[2 * c + 1]
-            r = np.asarray(ref)[sel]
-            for k, (lab, res) in enumerate(results.items()):
-                tt, lo, hi = decimate(t[sel], res.x_lo[sel, c] - r, res.x_hi[sel, c] - r,
-                                      max_points=2000)
-                _band(e, tt, lo, hi, k, f"$[{nm}^- - {nm},\\ {nm}^+ - {nm}]$ {lab}")
-            e.axhline(0.0, color="k", lw=0.9)
-            e.set_ylabel(f"interval $-$ ${nm}$ [{unit}]")
-            e.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
-    ax[-1].set_xlabel("$t$ [s]")
-    if title:
-        fig.suptitle(title)
-    return fig
-
-
-def plot_widths(t, results: dict, title: str = "", t_settle: dict | None = None):
-    """Interval widths of v_y and r (log scale) for several observers; ``t_settle``
-    ``{label: (t_vy, t_r)}`` marks each observer's convergence time [s] (from ``t[0]``)."""
-    import matplotlib.pyplot as plt
-
-    from vehicle_observers.core.arrays import decimate
-
-    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(9.0, 4.8))
-    for k, (lab, res) in enumerate(results.items()):
-        col = PALETTE[k % len(PALETTE)]
-        tt, w1, w2 = decimate(t, res.width[:, 0], res.width[:, 1], max_points=2000)
-        ax[0].semilogy(tt, np.maximum(w1, 1e-12), color=col, label=lab)
-        ax[1].semilogy(tt, np.maximum(w2, 1e-12), color=col, label=lab)
-        for c in range(2):
-            ts = (t_settle or {}).get(lab)
-            if ts is not None and np.isfinite(ts[c]):
-                ax[c].axvline(t[0] + ts[c], color=col, ls=":", lw=1.0)
-    ax[0].set_ylabel("width $v_y^+ - v_y^-$ [m/s]")
-    ax[1].set_ylabel("width $r^+ - r^-$ [rad/s]")
-    ax[1].set_xlabel("$t$ [s]")
-    ax[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
-    if title:
-        fig.suptitle(title)
-    return fig
-
-
-def plot_gains(design: IntervalDesign, L_printed=None, P_printed=None, others: dict | None = None):
-    """Designed |L| (and P_22/P_11) next to the slides' printed values, per mode.vertex;
-    ``others`` ``{label: IntervalDesign}`` adds more designs (e.g. the other vertex polarity)."""
-    import matplotlib.pyplot as plt
-
-    K = design.L.shape[0]
-    fig, ax = plt.subplots(1, 3, figsize=(10.5, 3.6))
-    idx = np.arange(K * 4)
-    labels = [f"{i + 1}.{j + 1}" for i in range(K) for j in range(4)]
-    designs = {"designed": design, **(others or {})}
-    marks = "osd^"
-    for c, nm in enumerate(("$|L_1|$ ($v_y$ row) [m/s]", "$|L_2|$ ($r$ row) [1/s]")):
-        for k, (lab, d) in enumerate(designs.items()):
-            ax[c].plot(idx, np.abs(d.L[..., c, 0]).ravel(), marks[k % 4], mfc="none",
-                       color=PALETTE[(0, 2, 4, 3)[k % 4]], label=lab)
-        if L_printed is not None:
-            lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
-            ax[c].plot(np.arange(len(lp)), lp, "x", color=PALETTE[1], label="printed")
-        ax[c].set_yscale("log")
-        ax[c].set_title(nm)
-    if P_printed is not None:
-        pp_ = np.asarray(P_printed)
-        ax[2].plot(np.arange(pp_[..., 0].size), (pp_[..., 1] / pp_[..., 0]).ravel(), "x",
-                   color=PALETTE[1], label="printed")
-    ax[2].plot(idx, (design.P[..., 1] / design.P[..., 0]).ravel(), "o", mfc="none",
-               color=PALETTE[0], label="designed")
-    ax[2].set_yscale("log")
-    ax[2].set_title("$P_{22} / P_{11}$ [-]")
-    for a in ax:
-        a.set_xticks(idx)
-        a.set_xticklabels(labels, rotation=90, fontsize=7)
-        a.set_xlabel("mode.vertex $i.j$")
-    ax[0].legend(fontsize=7)
-    return fig
+    def run(self, t, u, y, x0=None) -> IntervalRun:
+        """The compiled loop (:func:`run_interval_observer`) over the samples."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        d = u[:, 1]
+        zl, zh = self._to_z(*self._box(y, x0))
+        r = run_interval_observer(self._des, self.dt, u[:, 0], d - self.steer_noise,
+                                  d + self.steer_noise, y[:, 0], zl, zh, self.y_noise,
+                                  self.substeps, self.clip_speed, t=t)
+        lo, hi = self._to_x(r.lo, r.hi)
+        return IntervalRun(t, 0.5 * (lo + hi), STATE_NAMES, lo, hi, r.seconds,
+                           estimator=type(self).__name__, sigma=r.sigma, substeps=r.substeps,
+                           n_clipped=r.n_clipped)

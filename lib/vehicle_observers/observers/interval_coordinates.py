@@ -6,7 +6,7 @@ With the yaw-rate gyro ``C = [0 1]``, entry (2,1) of ``A - L C`` is
 ``(c_r l_r - c_f l_f)/(I_z v_x)`` whatever the gain ``L``, so the error dynamics can be made
 cooperative (Metzler) only for a car that understeers on the whole stiffness box
 (``c_r l_r > c_f l_f``; ``UncertainBicycle.max_metzler_uncertainty`` in
-:mod:`vehicle_observers.observers.interval`).
+:mod:`vehicle_observers.models.uncertain_bicycle`).
 Neutral or oversteering cars, or a box that straddles neutral steer, are refused.
 
 Raissi, Efimov, Zolghadri, "Interval state estimation for a class of nonlinear systems",
@@ -17,7 +17,8 @@ observer for ``z = T x`` and map the bounds back with interval arithmetic. Here
 
     T = [[1, 0], [-kappa, 1]],  z = [v_y, r - kappa v_y],  T^-1 = [[1, 0], [kappa, 1]],
 
-so ``A_z(rho, xi) = T A(rho, xi) T^-1``, ``B_z = T B``, ``C_z = C T^-1 = [kappa, 1]``. Entry
+so ``A_z(rho, xi) = T A(rho, xi) T^-1``, ``B_z = T B``, ``C_z = C T^-1 = [kappa, 1]``
+(:class:`~vehicle_observers.models.uncertain_bicycle.TransformedIntervalModel`). Entry
 (2,1) of ``A_z - L C_z`` is ``A_z21 - kappa l_2``: for ``kappa != 0`` the gain reaches every
 off-diagonal entry and the Metzler condition (20) is feasible for every car. ``A_z`` is still
 affine in ``xi`` and in each premise ``(1/v_x, v_x)``, so the element-wise bounds of
@@ -43,16 +44,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicle_observers.core.errors import InfeasibleDesign
+from vehicle_observers.core.errors import InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.design.lmi import Certificate
+from vehicle_observers.models.uncertain_bicycle import (
+    SpeedBands,
+    TransformedIntervalModel,
+    UncertainBicycle,
+)
 from vehicle_observers.observers import interval as iv
 
 KAPPAS = (0.0, 0.05, 0.1, 0.2, 0.4, -0.05, -0.1, -0.2)
-
-
-def transform(kappa: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(T, T^-1)`` of the similarity ``z = T x`` (module docstring), each (2, 2)."""
-    k = float(kappa)
-    return np.array([[1.0, 0.0], [-k, 1.0]]), np.array([[1.0, 0.0], [k, 1.0]])
 
 
 def box_image(S: np.ndarray, lo, hi) -> tuple[np.ndarray, np.ndarray]:
@@ -60,50 +61,6 @@ def box_image(S: np.ndarray, lo, hi) -> tuple[np.ndarray, np.ndarray]:
     Sp, Sm = np.maximum(S, 0.0), np.maximum(-S, 0.0)
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     return lo @ Sp.T - hi @ Sm.T, hi @ Sp.T - lo @ Sm.T
-
-
-class TransformedIntervalModel(iv.SwitchedIntervalModel):
-    """:class:`~vehicle_observers.observers.interval.SwitchedIntervalModel` of ``z = T x``:
-    ``A_lo/A_nom/A_hi`` (K, 4, 2, 2) of ``T A T^-1``, ``B_*`` (2, 1) of ``T B``, ``C = C_z``."""
-
-    def __init__(self, veh: iv.UncertainBicycle, bands: iv.SpeedBands, kappa: float):
-        super().__init__(veh, bands)
-        self.kappa = float(kappa)
-        self.T, self.Tinv = transform(kappa)
-        box = veh.xi_box
-        for i in range(bands.n_modes):
-            for j in range(4):
-                s, v = self.z_vertices[i, j]
-                fn = (lambda xi, s=s, v=v: self.T @ iv.lpv_A(s, v, xi, veh) @ self.Tinv)
-                self.A_lo[i, j], self.A_nom[i, j], self.A_hi[i, j] = iv.elementwise_bounds(fn,
-                                                                                           box)
-        self.B_lo, self.B_nom, self.B_hi = iv.elementwise_bounds(
-            lambda xi: self.T @ iv.lpv_B(xi, veh), box)
-        self.C = iv.C_OUT @ self.Tinv
-
-    def check_metzler_feasible(self):
-        """Raise :class:`InfeasibleDesign` if an off-diagonal entry in a column that ``L C``
-        cannot reach (``C[0, b] = 0``) is negative somewhere on the box."""
-        K, J, n, _ = self.A_lo.shape
-        for b in range(n):
-            if self.C[0, b] != 0.0:
-                continue
-            for i in range(K):
-                for j in range(J):
-                    for a in range(n):
-                        if a != b and self.A_lo[i, j, a, b] < 0:
-                            raise InfeasibleDesign(
-                                f"Metzler condition (20) impossible with kappa = {self.kappa:g}"
-                                f" in mode {i + 1}, vertex {j + 1}: entry ({a + 1},{b + 1}) of "
-                                f"A_z^- = {self.A_lo[i, j, a, b]:.4g} < 0 and C_z[{b + 1}] = 0",
-                                lmi=f"Metzler[{i + 1},{j + 1}]",
-                                violation=-self.A_lo[i, j, a, b])
-
-    def check_diagonal_shift(self, epsilon: float):
-        """(20)'s diagonal part: only columns with ``C[0, a] = 0`` are out of the gain's
-        reach; for ``kappa != 0`` none is and the LMI decides."""
-        if self.C[0, 0] == 0.0:
-            super().check_diagonal_shift(epsilon)
 
 
 @dataclass
@@ -117,6 +74,11 @@ class CoordinateIntervalDesign:
     design: iv.IntervalDesign
     kappa: float
     tried: dict
+
+    @property
+    def certificate(self) -> Certificate | None:
+        """The LMI certificate of Theorem 2 in ``z`` (:attr:`IntervalDesign.certificate`)."""
+        return self.design.certificate
 
     @property
     def T(self):
@@ -135,14 +97,14 @@ class CoordinateIntervalDesign:
         return bool(cert.ok and np.all(mm >= 0))
 
 
-def design(veh: iv.UncertainBicycle, bands: iv.SpeedBands, dt: float,
+def design(veh: UncertainBicycle, bands: SpeedBands, dt: float,
            kappas=KAPPAS, accel_max: float = 12.0, eps_decay: float = 1.0) -> CoordinateIntervalDesign:
     """Certified design for any car: Theorem 2 (16)-(21) in ``z = T(kappa) x`` for each
     candidate ``kappa`` [rad/m]; keeps the smallest ``sum_i gamma_i``. ``epsilon`` of (20)
     is ``1/dt`` (one Euler step per sample, see :func:`~vehicle_observers.observers.interval.euler_substeps`).
     Raises :class:`InfeasibleDesign` listing every candidate's failure if none certifies."""
-    if not (np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be > 0 s, got {dt}")
+    if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0):
+        raise ObserverArgumentError(f"design: dt must be finite and > 0 s, got {dt!r}")
     best, tried = None, {}
     for k in kappas:
         try:
@@ -165,7 +127,7 @@ def design(veh: iv.UncertainBicycle, bands: iv.SpeedBands, dt: float,
 
 
 def run(cd: CoordinateIntervalDesign, dt: float, vx, u_lo, u_hi, y, x0_lo, x0_hi,
-        y_noise: float = 0.0, clip_speed: bool = False) -> iv.IntervalResult:
+        y_noise: float = 0.0, clip_speed: bool = False, t=None) -> iv.IntervalRun:
     """Run the observer in ``z`` and return bounds on ``x = [v_y, r]`` (N, 2).
 
     Arguments as :func:`~vehicle_observers.observers.interval.run_interval_observer`; the
@@ -173,17 +135,40 @@ def run(cd: CoordinateIntervalDesign, dt: float, vx, u_lo, u_hi, y, x0_lo, x0_hi
     x0_lo = np.asarray(x0_lo, float).reshape(-1)
     x0_hi = np.asarray(x0_hi, float).reshape(-1)
     if x0_lo.shape != (2,) or x0_hi.shape != (2,) or np.any(x0_lo > x0_hi):
-        raise ValueError(f"initial box must be two (2,) vectors with x0_lo <= x0_hi, got "
-                         f"{x0_lo}, {x0_hi}")
+        raise ObserverArgumentError(f"initial box must be two (2,) vectors with x0_lo <= x0_hi, "
+                                    f"got {x0_lo}, {x0_hi}")
     z0_lo, z0_hi = box_image(cd.T, x0_lo, x0_hi)
     rz = iv.run_interval_observer(cd.design, dt, vx, u_lo, u_hi, y, z0_lo, z0_hi,
-                                  y_noise=y_noise, clip_speed=clip_speed)
+                                  y_noise=y_noise, clip_speed=clip_speed, t=t)
     x_lo, x_hi = box_image(cd.Tinv, rz.x_lo, rz.x_hi)
-    return iv.IntervalResult(x_lo, x_hi, rz.sigma, rz.substeps, rz.n_clipped)
+    return iv.IntervalRun(rz.t, 0.5 * (x_lo + x_hi), iv.STATE_NAMES, x_lo, x_hi, rz.seconds,
+                          estimator="interval (11) in z = T x", sigma=rz.sigma,
+                          substeps=rz.substeps, n_clipped=rz.n_clipped)
 
 
-def step_readable(cd: CoordinateIntervalDesign, i: int, h, z_hi, z_lo, y, u_lo, u_hi):
-    """Readable numpy right-hand side of the observer in ``z`` (mode ``i``, weights ``h``):
-    the same formula as :func:`~vehicle_observers.observers.interval.implemented_rhs` (the
-    tests compare it with one compiled Euler step)."""
-    return iv.implemented_rhs(cd.design, i, h, z_hi, z_lo, y, u_lo, u_hi)
+class CoordinateIntervalObserver(iv.IntervalObserver):
+    """The interval observer (11) in ``z = T x`` (:class:`CoordinateIntervalDesign`) on the
+    contract of :mod:`vehicle_observers.core.protocol`, with the arguments, inputs and
+    outputs of :class:`~vehicle_observers.observers.interval.IntervalObserver`. The internal
+    state is the box ``[z^-, z^+]`` (4,); :meth:`bounds` maps it back to ``x`` with the
+    tightest box image under ``T^-1`` (module docstring), and the initial ``x`` box is mapped
+    to ``z`` under ``T``."""
+
+    def __init__(self, design: CoordinateIntervalDesign, dt: float, box0,
+                 steer_noise: float = 0.0, y_noise: float = 0.0, clip_speed: bool = False):
+        if not isinstance(design, CoordinateIntervalDesign):
+            raise ObserverArgumentError(f"CoordinateIntervalObserver: design must be a "
+                                        f"CoordinateIntervalDesign, got {type(design).__name__}")
+        self._z_design = design.design
+        super().__init__(design, dt, box0, steer_noise, y_noise, None, clip_speed)
+
+    @property
+    def _des(self) -> iv.IntervalDesign:
+        return self._z_design
+
+    def _to_z(self, lo, hi):
+        return box_image(self.design.T, lo, hi)
+
+    def _to_x(self, lo, hi):
+        return box_image(self.design.Tinv, lo, hi)
+

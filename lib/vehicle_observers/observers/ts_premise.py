@@ -1,5 +1,5 @@
 """Yacine 2015 estimation chain: curvature (11), premise estimate (26)-(28), LMI Theorem 1
-(33), TS observer (31), force recovery (46) and the error bound (34).
+(33) and its certificate, TS observer (31) and force recovery (46).
 
 Reference: Z. Yacine, D. Ichalal, N. Ait-Oufroukh, S. Mammar, S. Djennoune, "Takagi-Sugeno
 observers: experimental application for vehicle lateral dynamics estimation", IEEE TCST
@@ -43,13 +43,11 @@ the transient term of (34)). The solution is certified twice: the builders re-ev
 the numeric ``P~, M~_i, c`` (LMIDesign), and (33) rebuilt independently in the original
 coordinates from ``A_i``, ``P`` and ``L_i`` (:func:`certify_original`).
 
-Bound (34). The printed second branch of (34) is garbled ("sqrt(a2/a1)||e0|| + c/(a a1)
-max||delta||^2 e^{aT} e^{-a t/2}" mixes a norm and a squared norm); it is reconstructed from
-the proof, (40)-(45):
-``||e(t)|| <= sqrt(a2/a1 ||e0||^2 e^{-a t} + c/(a a1) max_{[0,t]} ||delta||^2)`` (t <= T) and
-``||e(t)|| <= sqrt(a2/a1 ||e0||^2 + c/(a a1) max_{[0,T]} ||delta||^2 e^{a T}) e^{-a t/2}``
-(t >= T, where ``delta = 0``), ``a1, a2`` the extreme eigenvalues of ``P``. The first
-(ISS) form holds for all t with the running max; :func:`bound_34` returns both.
+Observer class: :class:`TSPremiseObserver` (the contract of
+:mod:`vehicle_observers.core.protocol`; readable step :func:`observer_step`, compiled loop
+:func:`_observer`); :func:`run_observer` runs it on a drive log with the vision chain. The
+error bound (34) and the premise mismatch (30) of the paper's Theorem 1 are checked in
+:mod:`vehicle_observers_papers.yacine_2015.theorem1`.
 """
 
 from __future__ import annotations
@@ -62,10 +60,29 @@ import cvxpy as cp
 import numpy as np
 from numba import njit
 
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.core.protocol import ObserverBase, Trajectory, check_sample_period
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
-from vehicle_observers.models.lateral import LateralParams, forces_from_transformed, secant_kernel
+from vehicle_observers.models.lateral import (
+    A_F,
+    A_R,
+    TF_B,
+    TF_C,
+    TF_D,
+    TF_E,
+    TR_B,
+    TR_C,
+    TR_D,
+    TR_E,
+    Z_FF,
+    Z_FR,
+    Z_VX,
+    LateralParams,
+    forces_from_transformed,
+    ts_weights,
+)
+from vehicle_observers.models.tires import magic_formula_secant
 from vehicle_observers.models.ts import SectorTS, memberships
 from vehicle_observers.models.vehicle import load_vehicle
 from vehicle_observers.observers.differentiators import levant_differentiator
@@ -80,6 +97,11 @@ L_YL = 50.0     # m/s^4
 L_PSIL = 5.0    # rad/s^4
 #: speed floor [m/s] in the curvature formula (11) (the formula is singular at v_x = 0)
 VX_FLOOR = 0.5
+#: largest relative spread of the sample period the fixed-step observer accepts
+DT_RTOL = 1e-3
+#: the transformed state (12) in schema names: ``v_y`` [m/s], ``r`` [rad/s],
+#: ``x3 = (F_f + F_r)/m`` [m/s^2], ``x4 = (a_f F_f - a_r F_r)/I_z`` [rad/s^2]
+STATE_NAMES = ("vy_mps", "yaw_rate_radps", "x3_mps2", "x4_radps2")
 
 
 def _params(params):
@@ -176,6 +198,14 @@ class ObserverDesign:
     solve_time: float
     p_max: float | None = 1e3
 
+    @property
+    def certificate(self) -> Certificate:
+        """The LMI certificate of the observer: (33) rebuilt in original coordinates from
+        ``A_i``, ``P``, ``L_i`` and checked by eigenvalues (independent of the solver; the
+        scaled problem's own certificate, added constraints included, is
+        ``solution.certificate``)."""
+        return self.certificate_original
+
     def added_constraints(self) -> list[str]:
         """The constraints solved *in addition to* (33) and ``P > 0`` (scaled coordinates
         ``P~ = S P S``): the normalisation ``P~ >= I`` (removes the homogeneity of (33), does
@@ -241,9 +271,13 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
     paper's bounds (33) alone is feasible up to alpha = 10 at least; ``p_max`` is what fails
     first as alpha grows). Objective ``min c``.
     Raises :class:`InfeasibleDesign` naming the worst vertex and the best achievable largest
-    eigenvalue of (33) (found by :func:`diagnose_infeasible`) when there is no solution, and
-    :class:`CertificationError` if a returned solution fails either certificate.
+    eigenvalue of (33) (found by :func:`diagnose_infeasible`) when there is no solution,
+    :class:`CertificationError` if a returned solution fails either certificate, and
+    :class:`~vehicle_observers.core.errors.ObserverArgumentError` for a decay rate ``alpha``
+    that is not finite and > 0 (with ``alpha <= 0`` (33) certifies no decay: the "design"
+    would not be an observer with the bound (34)), a radius, bound or scale <= 0.
     """
+    _check_design_args(alpha, scale, disk_radius, p_max)
     nr = ts.n_rules
     S = np.diag(np.asarray(scale, dtype=float))
     Si = np.linalg.inv(S)
@@ -294,6 +328,20 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
                                  f"(margin {w.margin:.3e})", lmi=w.name, violation=-w.margin)
     return ObserverDesign(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
                           solve_time, p_max)
+
+
+def _check_design_args(alpha, scale, disk_radius, p_max):
+    if not (np.ndim(alpha) == 0 and np.isfinite(alpha) and alpha > 0):
+        raise ObserverArgumentError(f"design_theorem1: alpha (decay rate of (33)) must be finite "
+                                    f"and > 0 [1/s], got {alpha!r}")
+    sc = np.asarray(scale, dtype=float)
+    if sc.shape != (4,) or not np.all(np.isfinite(sc) & (sc > 0)):
+        raise ObserverArgumentError(f"design_theorem1: scale must be 4 finite values > 0, got "
+                                    f"{scale!r}")
+    for name, v in (("disk_radius", disk_radius), ("p_max", p_max)):
+        if v is not None and not (np.isfinite(v) and v > 0):
+            raise ObserverArgumentError(f"design_theorem1: {name} must be finite and > 0 (or "
+                                        f"None), got {v!r}")
 
 
 def diagnose_infeasible(ts: SectorTS, alpha: float, scale=STATE_SCALE,
@@ -363,6 +411,10 @@ def _obs_rhs(x, Ab, Bb, Lb, u, y, out):
 
 @njit(cache=True)
 def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
+    """Compiled loop of the TS observer (31): the estimate at sample ``k`` is stored, then the
+    premises (slip (4) with ``v_ye``, secant stiffnesses (16), ``v_x``) of sample ``k`` are
+    clipped to the sector, the memberships frozen, and ``substeps`` RK4 steps of
+    ``dt / substeps`` with the inputs of sample ``k`` held give the estimate at ``k + 1``."""
     N = y.shape[0]
     nv = Av.shape[0]
     n = x0.shape[0]
@@ -380,7 +432,7 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
     k3 = np.empty(n)
     k4 = np.empty(n)
     tmp = np.empty(n)
-    af, ar = P[2], P[3]
+    af, ar = P[A_F], P[A_R]
     hs = dt / substeps
     for k in range(N):
         X[k] = x
@@ -388,9 +440,9 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
         r = y[k]
         a_f = u[k] - vyp[k] / v - af * r / v                       # slip (4) with v_ye
         a_r = -vyp[k] / v + ar * r / v
-        z[0] = secant_kernel(a_r, P[11], P[12], P[13], P[14])
-        z[1] = secant_kernel(a_f, P[7], P[8], P[9], P[10])
-        z[2] = v
+        z[Z_FR] = magic_formula_secant(a_r, P[TR_B], P[TR_C], P[TR_D], P[TR_E])
+        z[Z_FF] = magic_formula_secant(a_f, P[TF_B], P[TF_C], P[TF_D], P[TF_E])
+        z[Z_VX] = v
         for j in range(3):
             if z[j] < zmin[j]:
                 z[j] = zmin[j]
@@ -399,14 +451,7 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
                 z[j] = zmax[j]
                 clipped[k, j] = True
             Z[k, j] = z[j]
-        # memberships (ts.memberships ordering: bit 0 -> zmax)
-        for i in range(nv):
-            w = 1.0
-            for j in range(3):
-                bit = (i >> (2 - j)) & 1
-                w0 = (z[j] - zmin[j]) / (zmax[j] - zmin[j])
-                w *= w0 if bit == 0 else 1.0 - w0
-            h[i] = w
+        ts_weights(z, zmin, zmax, h)                 # memberships (22), ts.memberships order
         for a in range(n):
             Bb[a] = 0.0
             Lb[a] = 0.0
@@ -435,12 +480,12 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
 
 
 def observer_step(design: ObserverDesign, x, z, u: float, y: float, dt: float):
-    """One sample of the TS observer (31), readable numpy version of the compiled loop.
+    """One RK4 step of the TS observer (31), Yacine 2015:
+    ``xhat' = sum_i h_i(s_e) (A_i xhat + B_i u + L_i (y - C xhat))``, ``C xhat = xhat_2``.
 
-    ``x`` (4,) estimate; ``z`` (3,) premises ``(f_r, f_f, v_x)`` already clipped to the sector;
-    ``u`` steering [rad], ``y`` measured yaw rate [rad/s], both held over ``dt`` [s].
-    Returns the estimate after one RK4 step of
-    ``xhat' = sum_i h_i (A_i xhat + B_i u + L_i (y - C xhat))`` (Yacine 2015, eq. (31)).
+    ``x`` (4,) estimate (transformed state (12)); ``z`` (3,) premises ``(f_r, f_f, v_x)``
+    already clipped to the sector; ``u`` steering [rad], ``y`` measured yaw rate [rad/s],
+    both held over ``dt`` [s]. Returns the estimate after the step.
     """
     ts = design.ts
     h = memberships(np.atleast_2d(z), ts.zmin, ts.zmax)[0]     # h_i(s_e), sum = 1
@@ -458,25 +503,115 @@ def observer_step(design: ObserverDesign, x, z, u: float, y: float, dt: float):
     return x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
-@dataclass
-class ObserverRun:
-    """Observer output: ``x`` (N, 4) transformed state (12); ``vy, Ff, Fr`` (N,) by (46);
-    ``z`` (N, 3) premises ``(f_r, f_f, v_x)`` after clipping to the sector; ``clipped``
-    (N, 3) bool, which premise was clipped at which sample; ``premises`` the vision chain."""
+@dataclass(frozen=True, eq=False)
+class TSRun(Trajectory):
+    """A run of the TS observer (31): the :class:`~vehicle_observers.core.protocol.Trajectory`
+    of the transformed state (12) ``x`` (N, 4) (:data:`STATE_NAMES`), plus ``Ff``, ``Fr``
+    (N,) axle forces [N] by (46), ``z`` (N, 3) premises ``(f_r, f_f, v_x)`` after clipping
+    to the sector, ``clipped`` (N, 3) bool (which premise was clipped at which sample) and
+    ``premises`` the vision chain's :class:`PremiseEstimate` (or ``None``). ``vy`` is a view
+    of ``x``."""
 
-    x: np.ndarray
-    vy: np.ndarray
-    Ff: np.ndarray
-    Fr: np.ndarray
-    z: np.ndarray
-    clipped: np.ndarray
-    premises: PremiseEstimate | None
+    Ff: np.ndarray | None = None
+    Fr: np.ndarray | None = None
+    z: np.ndarray | None = None
+    clipped: np.ndarray | None = None
+    premises: PremiseEstimate | None = None
+
+    @property
+    def vy(self) -> np.ndarray:
+        return self.x[:, 0]
+
+
+class TSPremiseObserver(ObserverBase):
+    """Yacine 2015 TS observer (31) with estimated premises, on the contract of
+    :mod:`vehicle_observers.core.protocol`.
+
+    ``design``: the certified :class:`ObserverDesign` (Theorem 1); ``params``: the car of
+    the premises (default the paper's); ``dt`` [s]: the fixed sample period the observer
+    integrates with (``run`` checks ``t`` against it, relative :data:`DT_RTOL`);
+    ``substeps``: RK4 steps per sample. Inputs ``u = [delta, v_x, v_ye]`` (N, 3): road-wheel
+    steering [rad], speed [m/s] (> 0) and the premise lateral velocity (26) [m/s] of the
+    vision chain (:func:`estimate_premises`); output ``y = [r]`` (N, 1) the gyro; state
+    ``x = z`` the transformed state (12) (:data:`STATE_NAMES`), ``x0`` default 0 (paper).
+    Sample ``k`` integrates over ``[t_{k-1}, t_k]`` with the inputs of sample ``k - 1``
+    held (premises clipped to the sector, memberships frozen).
+    """
+
+    state_names = STATE_NAMES
+    input_names = ("delta_roadwheel_rad", "vx_mps", "vy_premise_mps")
+    output_names = ("yaw_rate_radps",)
+
+    def __init__(self, design: ObserverDesign, dt: float, params: LateralParams | None = None,
+                 substeps: int = 1):
+        if not isinstance(design, ObserverDesign):
+            raise ObserverArgumentError(f"TSPremiseObserver: design must be an ObserverDesign, "
+                                        f"got {type(design).__name__}")
+        if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0):
+            raise ObserverArgumentError(f"TSPremiseObserver: dt must be finite and > 0 s, got "
+                                        f"{dt!r}")
+        if int(substeps) != substeps or substeps < 1:
+            raise ObserverArgumentError(f"TSPremiseObserver: substeps must be an integer >= 1, "
+                                        f"got {substeps!r}")
+        self.design = design
+        self.params = _params(params)
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+
+    def check_data(self, t, u, y, x0=None):
+        t, u, y, x0 = super().check_data(t, u, y, x0)
+        check_sample_period(t, self.dt, "TSPremiseObserver", DT_RTOL)
+        if np.any(u[:, 1] <= 0):
+            k = int(np.argmax(u[:, 1] <= 0))
+            raise ObserverArgumentError(f"TSPremiseObserver: u column 1 (vx_mps) must be > 0 "
+                                        f"(slip (4) divides by it): row {k} has {u[k, 1]}")
+        return t, u, y, x0
+
+    def initial_state(self, t, u, y, x0=None):
+        return np.zeros(4) if x0 is None else np.array(x0, dtype=float)
+
+    def premises(self, k, u, y):
+        """Premises ``(f_r, f_f, v_x)`` of sample ``k`` (slip (4) with ``v_ye``, secant
+        stiffnesses (16)), clipped to the sector of the TS model (24)."""
+        ts = self.design.ts
+        z = ts_premises(u[k, 2], y[k, 0], u[k, 0], u[k, 1], self.params)[0]
+        return np.clip(z, ts.zmin, ts.zmax)
+
+    def step(self, z, k, t, u, y):
+        """``substeps`` :func:`observer_step` (31) over ``[t_{k-1}, t_k]`` with the inputs and
+        the clipped premises of sample ``k - 1`` held."""
+        zc = self.premises(k - 1, u, y)
+        for _ in range(self.substeps):
+            z = observer_step(self.design, z, zc, u[k - 1, 0], y[k - 1, 0],
+                              self.dt / self.substeps)
+        return z
+
+    def estimate(self, z):
+        return z
+
+    def run(self, t, u, y, x0=None, premises: PremiseEstimate | None = None) -> TSRun:
+        """The compiled loop :func:`_observer`; forces by (46). ``premises`` (the vision
+        chain that produced ``u[:, 2]``) is only attached to the result."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        x0 = self.initial_state(t, u, y, x0)
+        ts = self.design.ts
+        t0 = time.perf_counter()
+        X, Z, clipped = _observer(np.ascontiguousarray(y[:, 0]), np.ascontiguousarray(u[:, 0]),
+                                  np.ascontiguousarray(u[:, 1]), np.ascontiguousarray(u[:, 2]),
+                                  self.dt, self.params.as_array(), ts.A, ts.B,
+                                  np.ascontiguousarray(self.design.L), ts.zmin, ts.zmax, x0,
+                                  self.substeps)
+        sec = time.perf_counter() - t0
+        Ff, Fr = forces_from_transformed(X[:, 2], X[:, 3], self.params)
+        return TSRun(t, X, STATE_NAMES, seconds=sec, estimator=type(self).__name__,
+                     Ff=Ff, Fr=Fr, z=Z, clipped=clipped, premises=premises)
 
 
 def run_observer(log: DriveLog, design: ObserverDesign, premises: PremiseEstimate | None = None,
                  vy_premise=None, x0=None, params: LateralParams | None = None,
-                 substeps: int = 1) -> ObserverRun:
-    """TS observer (31) on a log; premise ``v_y`` from (26) unless ``vy_premise`` is given.
+                 substeps: int = 1) -> TSRun:
+    """TS observer (31) (:class:`TSPremiseObserver` at ``dt = log.dt``) on a log; premise
+    ``v_y`` from (26) (:func:`estimate_premises`) unless ``vy_premise`` is given.
 
     ``x0`` (4,) initial estimate (default 0, as in the paper). The inputs (yaw rate,
     steering, speed, premise) are held over each sample; RK4 with ``substeps`` steps.
@@ -484,80 +619,13 @@ def run_observer(log: DriveLog, design: ObserverDesign, premises: PremiseEstimat
     p = _params(params)
     if premises is None and vy_premise is None:
         premises = estimate_premises(log, params=p)
-    vyp = np.ascontiguousarray(premises.vy if vy_premise is None else vy_premise, dtype=float)
+    vyp = np.asarray(premises.vy if vy_premise is None else vy_premise, dtype=float)
     if np.any(log.vx <= 0):
         k = int(np.argmax(log.vx <= 0))
-        raise ValueError(f"{log.source}: column 'vx_mps' must be > 0 (slip (4) divides by it); "
-                         f"row {k} has {log.vx[k]}")
-    x0 = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float)
-    ts = design.ts
-    X, Z, clipped = _observer(np.ascontiguousarray(log.yaw_rate, dtype=float),
-                              np.ascontiguousarray(log.delta, dtype=float),
-                              np.ascontiguousarray(log.vx, dtype=float), vyp, log.dt,
-                              p.as_array(), ts.A, ts.B, np.ascontiguousarray(design.L),
-                              ts.zmin, ts.zmax, x0, int(substeps))
-    Ff, Fr = forces_from_transformed(X[:, 2], X[:, 3], p)
-    return ObserverRun(X, X[:, 0].copy(), Ff, Fr, Z, clipped, premises)
+        raise ObserverArgumentError(f"{log.source}: column 'vx_mps' must be > 0 (slip (4) "
+                                    f"divides by it); row {k} has {log.vx[k]}")
+    obs = TSPremiseObserver(design, log.dt, p, substeps)
+    return obs.run(log.t, np.column_stack([log.delta, log.vx, vyp]), log.yaw_rate, x0,
+                   premises=premises)
 
 
-# ================================================================ bound (34) ==============
-def premise_mismatch(ts: SectorTS, x_true, u, z_true, z_est):
-    """``delta(t)`` of (30): ``sum_i (h_i(z) - h_i(z_e)) (A_i x + B_i u)`` -> (N, 4).
-
-    Rows 1-2 vanish identically (they depend on ``v_x`` only, which both premise sets share);
-    ``Gamma delta`` uses rows 3-4, returned as the (N, 2) second output.
-    """
-    h = memberships(np.clip(z_true, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
-    he = memberships(np.clip(z_est, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
-    x_true = np.atleast_2d(x_true)
-    u = np.asarray(u, dtype=float).reshape(len(x_true), 1)
-    f = np.einsum("ikl,nl->nik", ts.A, x_true) + np.einsum("ikl,nl->nik", ts.B, u)
-    full = np.einsum("ni,nik->nk", h - he, f)
-    return full, full[:, 2:]
-
-
-def bound_34(t, e0_norm: float, delta_norm, T: float, design: ObserverDesign) -> dict:
-    """Right-hand sides of (34) as reconstructed from (40)-(45) (module docstring).
-
-    ``delta_norm`` (N,) = ``||delta(t_k)||``. Returns ``iss`` (all t, running max of delta),
-    ``paper`` ((34): first branch on [0, T], (45) after T with max over [0, T]) (N,).
-    """
-    t = np.asarray(t, dtype=float) - float(np.asarray(t)[0])
-    a, c, a1, a2 = design.alpha, design.c, design.alpha1, design.alpha2
-    dn = np.asarray(delta_norm, dtype=float)
-    run = np.maximum.accumulate(dn**2)
-    iss = np.sqrt(a2 / a1 * e0_norm**2 * np.exp(-a * t) + c / (a * a1) * run)
-    dT = float(run[np.searchsorted(t, T, side="right") - 1]) if T > 0 else 0.0
-    after = np.sqrt(a2 / a1 * e0_norm**2 + c / (a * a1) * dT * np.exp(a * T)) * np.exp(
-        -a * t / 2)
-    paper = np.where(t <= T, iss, after)
-    return {"iss": iss, "paper": paper, "delta_max_T": float(np.sqrt(dT))}
-
-
-def convergence_time(t, err, band: float, mode: str = "last", hold: float = 1.0) -> float:
-    """Differentiator convergence time ``T`` from an error signal (N,) [s from ``t[0]``].
-
-    ``mode="last"``: the instant after the last sample with ``|err| > band`` (so
-    ``|err| <= band`` on ``[T, end]``; this is the ``T`` of (34)). ``mode="first"``: the first
-    instant after which ``|err| <= band`` holds for at least ``hold`` s (the initial
-    transient only; later re-convergences, e.g. at clothoid junctions where ``psi_L^(4)`` is
-    unbounded, are not counted). Returns ``nan`` if never converged.
-    """
-    t = np.asarray(t, dtype=float)
-    t = t - t[0]
-    bad = np.abs(np.asarray(err, dtype=float)) > band
-    if mode == "last":
-        idx = np.flatnonzero(bad)
-        if len(idx) == 0:
-            return 0.0
-        return float(t[idx[-1] + 1]) if idx[-1] + 1 < len(t) else float("nan")
-    if mode != "first":
-        raise ValueError(f"mode must be 'last' or 'first', got {mode!r}")
-    n_hold = max(1, int(round(hold / np.median(np.diff(t)))))
-    good = ~bad
-    run = 0
-    for k in range(len(good)):
-        run = run + 1 if good[k] else 0
-        if run >= n_hold:
-            return float(t[k - n_hold + 1])
-    return float("nan")

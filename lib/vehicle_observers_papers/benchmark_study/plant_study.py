@@ -188,7 +188,7 @@ def interval_certification_rows(seed: int = 0, duration: float = 30.0) -> list[d
     bicycle, Euler at the car's log period, seeded random stiffness in the box, speeds
     sweeping the bands)."""
     from vehicle_observers.estimation import adapters
-    from vehicle_observers.observers import interval as iv
+    from vehicle_observers.models import uncertain_bicycle as ub
     from vehicle_observers.observers import interval_coordinates as ic
 
     cars = {n_: load_vehicle(n_) for n_ in ("yacine2015", "revs250lm")}
@@ -203,8 +203,8 @@ def interval_certification_rows(seed: int = 0, duration: float = 30.0) -> list[d
         t = np.arange(n) * dt
         vx = e[0] + (e[-1] - e[0]) * (0.5 - 0.5 * np.cos(2 * np.pi * t / t[-1]))
         u = 0.03 * np.sin(2 * np.pi * 0.4 * t)
-        xi = iv.random_stiffness_trajectory(veh, n, dt, seed=seed, corr_time=0.5)
-        X = iv.simulate_lpv(veh, [0.0, 0.0], u, vx, xi, dt)
+        xi = ub.random_stiffness_trajectory(veh, n, dt, seed=seed, corr_time=0.5)
+        X = ub.simulate_lpv(veh, [0.0, 0.0], u, vx, xi, dt)
         res = ic.run(cd, dt, vx, u, u, X[:, 1], [-1.0, -0.3], [1.0, 0.3])
         inside = np.all((res.x_lo <= X + 1e-9) & (X <= res.x_hi + 1e-9), axis=1)
         rows.append({"car": name, "certified": cd.certified, "kappa": cd.kappa,

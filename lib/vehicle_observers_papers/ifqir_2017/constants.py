@@ -23,7 +23,7 @@ diagonal shift ``epsilon_shift`` = 1000 1/s (bounds the gains), membership-rate 
 """
 
 import numpy as np
-from vehicle_observers.observers.interval import SpeedBands, UncertainBicycle
+from vehicle_observers.models.uncertain_bicycle import SpeedBands, UncertainBicycle
 
 from vehicle_observers_papers.yacine_2015 import constants as yacine2015
 
@@ -79,7 +79,7 @@ def model(bands_: SpeedBands | None = None, veh: UncertainBicycle | None = None,
     ``inv_vx_upper_first``: vertex polarity of the premise ``1/v_x`` (True: vertices 1-2
     use the upper bound ``1/v_min``; False: the lower bound ``1/v_max``). The slides do not
     say which; both are compared with the printed gains in notebook 03."""
-    from vehicle_observers.observers.interval import SwitchedIntervalModel
+    from vehicle_observers.models.uncertain_bicycle import SwitchedIntervalModel
 
     pol = globals()["inv_vx_upper_first"] if inv_vx_upper_first is None else inv_vx_upper_first
     return SwitchedIntervalModel(veh or vehicle, bands_ or bands, pol)

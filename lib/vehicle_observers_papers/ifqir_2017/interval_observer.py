@@ -16,9 +16,12 @@ from __future__ import annotations
 import numpy as np
 from vehicle_observers.data.logs import DriveLog, despike, load_revs
 from vehicle_observers.data.scenarios import NOISE_STD
+from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 
 from vehicle_observers_papers.ifqir_2017 import constants as IF
+from vehicle_observers_papers.ifqir_2017 import evaluation as ev
+from vehicle_observers_papers.ifqir_2017 import printed_solution as ps
 
 #: initial box ``(x0_lo, x0_hi)`` of ``[v_y, r]`` [m/s, rad/s] on the emulated run
 BOX0 = (np.array([-0.5, -0.1]), np.array([0.5, 0.1]))
@@ -50,7 +53,7 @@ def _ratio(a: dict, b: dict, key: str) -> float:
 
 
 # ------------------------------------------------------------------ section 1 --------------
-def box_summary(veh: iv.UncertainBicycle | None = None, model: iv.SwitchedIntervalModel | None = None
+def box_summary(veh: ub.UncertainBicycle | None = None, model: ub.SwitchedIntervalModel | None = None
                 ) -> dict:
     """Assumption 3 bounds of section 1: stiffness box ``[[c_r^-, c_r^+], [c_f^-, c_f^+]]``
     [N/rad], the largest relative uncertainty keeping entry (2,1) of ``A - LC`` >= 0, and a
@@ -94,8 +97,8 @@ def observer_step_check(des: iv.IntervalDesign, dt: float = IF.Ts, seed: int = 0
     return worst
 
 
-def design_study(seed: int = 0, quick: bool = False, veh: iv.UncertainBicycle | None = None,
-                 bands: iv.SpeedBands | None = None) -> dict:
+def design_study(seed: int = 0, quick: bool = False, veh: ub.UncertainBicycle | None = None,
+                 bands: ub.SpeedBands | None = None) -> dict:
     """Theorem 2 (17)-(21) for the switched bands (22) (``bands``, default
     :data:`.constants.bands`) and for one band over the same range (non-switched), both
     certified, for the vehicle ``veh`` (default :data:`.constants.vehicle`); the
@@ -106,7 +109,7 @@ def design_study(seed: int = 0, quick: bool = False, veh: iv.UncertainBicycle | 
     < 0 is good), ``dwell`` (dict), ``text`` and ``metrics`` (gamma per mode (K,), margins
     [1/s], dwell time [s]) and ``timings`` (solver wall clock [s], for ``rep.timing``)."""
     bands = bands or IF.bands
-    single = iv.SpeedBands((bands.edges[0], bands.edges[-1]))
+    single = ub.SpeedBands((bands.edges[0], bands.edges[-1]))
     des, des1 = IF.design(bands, veh), IF.design(single, veh)
     bl = iv.blended_iss_margin(des, n=300 if quick else 3000, seed=seed)
     dw = iv.dwell_time_bound(des)
@@ -197,7 +200,7 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
     smallest (20) shift of the printed gains, max over modes [1/s]), ``text``, ``metrics``."""
     out, lines, metrics = {}, [], {}
     for key, pol in (("cert", inv_vx_upper_first), ("cert_other", not inv_vx_upper_first)):
-        c = iv.certify_solution(IF.model(inv_vx_upper_first=pol), IF.P_printed, IF.L_printed,
+        c = ps.certify_solution(IF.model(inv_vx_upper_first=pol), IF.P_printed, IF.L_printed,
                                 IF.eps_decay, IF.accel_max, IF.p_min)
         out[key] = c
         sfx = "" if key == "cert" else "_other_polarity"
@@ -280,13 +283,13 @@ def lpv_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.IntervalDesig
     """
     t, dt = log.t, log.dt
     vx, d = log.extra["vx_true_mps"], log.extra["delta_true_rad"]
-    xi = iv.random_stiffness_trajectory(des.model.veh, len(t), dt, seed=seed,
+    xi = ub.random_stiffness_trajectory(des.model.veh, len(t), dt, seed=seed,
                                         corr_time=CORR_TIME)
-    X = iv.simulate_lpv(des.model.veh, [0.0, 0.0], d, vx, xi, dt)
+    X = ub.simulate_lpv(des.model.veh, [0.0, 0.0], d, vx, xi, dt)
     res = iv.run_interval_observer(des, dt, vx, d, d, X[:, 1], *box0)
     res1 = iv.run_interval_observer(des1, dt, vx, d, d, X[:, 1], *box0)
-    m = iv.interval_metrics(res, X, t, width_t_skip=WIDTH_T_SKIP)
-    m1 = iv.interval_metrics(res1, X, t, width_t_skip=WIDTH_T_SKIP)
+    m = ev.interval_metrics(res, X, t, width_t_skip=WIDTH_T_SKIP)
+    m1 = ev.interval_metrics(res1, X, t, width_t_skip=WIDTH_T_SKIP)
     acc = np.abs(np.diff(vx)).max() / dt
     metrics = {f"lpv_{k}": (v, "", "") for k, v in m.items()}
     for k in ("width_mean_vy", "width_mean_r"):
@@ -303,7 +306,7 @@ def lpv_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.IntervalDesig
             "bands": des.model.bands, "text": text, "metrics": metrics}
 
 
-def convergence_starts(t, vx, bands: iv.SpeedBands, horizon: float = CONV_HORIZON) -> list:
+def convergence_starts(t, vx, bands: ub.SpeedBands, horizon: float = CONV_HORIZON) -> list:
     """Start samples for the convergence test: per mode, the first sample whose speed is
     closest to the band's mid speed [m/s] among those followed by ``horizon`` s of record
     (one int per mode; ``-1`` when the run never reaches the band)."""
@@ -360,7 +363,7 @@ def _settle(de, t, vx, d, X, dt, k, n_h, box0, frac):
     run = lambda lo, hi: iv.run_interval_observer(de, dt, vx[sl], d[sl], d[sl], X[sl, 1], lo, hi)
     res, ref = run(x0 + box0[0], x0 + box0[1]), run(x0, x0)
     dev = np.abs(res.width - ref.width)
-    return ([iv.settling_time(t[sl], res.width[:, c], ref.width[:, c], frac) for c in range(2)],
+    return ([ev.settling_time(t[sl], res.width[:, c], ref.width[:, c], frac) for c in range(2)],
             (t[sl] - t[k], dev / dev[0]))
 
 
@@ -376,8 +379,8 @@ def effective_stiffness_share(log: DriveLog, xi_box, min_slip_deg: float = MIN_S
     if not big.any():                  # e.g. a short straight segment: nothing to measure
         return {"front": float("nan"), "rear": float("nan"), "share_big_slip": 0.0}
     cf_eff, cr_eff = log.Ff / np.where(big, af, 1), log.Fr / np.where(big, ar, 1)
-    return {"front": iv.share_in_box(cf_eff, *xi_box[1], mask=big),
-            "rear": iv.share_in_box(cr_eff, *xi_box[0], mask=big),
+    return {"front": ev.share_in_box(cf_eff, *xi_box[1], mask=big),
+            "rear": ev.share_in_box(cr_eff, *xi_box[0], mask=big),
             "share_big_slip": float(big.mean())}
 
 
@@ -391,10 +394,10 @@ def nonlinear_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.Interva
     (:func:`effective_stiffness_share`), ``text`` and ``metrics``."""
     kw = dict(steer_noise=n_sigma * NOISE_STD["delta"], y_noise=n_sigma * NOISE_STD["yaw_rate"],
               clip_speed=True)
-    res, res1 = iv.run_on_log(des, log, *box0, **kw), iv.run_on_log(des1, log, *box0, **kw)
+    res, res1 = ev.run_on_log(des, log, *box0, **kw), ev.run_on_log(des1, log, *box0, **kw)
     truth = np.column_stack([log.vy, log.extra["yaw_rate_true_radps"]])
-    m = iv.interval_metrics(res, truth, log.t, width_t_skip=WIDTH_T_SKIP)
-    m1 = iv.interval_metrics(res1, truth, log.t, width_t_skip=WIDTH_T_SKIP)
+    m = ev.interval_metrics(res, truth, log.t, width_t_skip=WIDTH_T_SKIP)
+    m1 = ev.interval_metrics(res1, truth, log.t, width_t_skip=WIDTH_T_SKIP)
     st = effective_stiffness_share(log, des.model.veh.xi_box)
     metrics = {f"nl_{k}": (v, "", "") for k, v in m.items()}
     metrics["nl_single_width_mean_vy"] = (m1["width_mean_vy"], "", "")
@@ -411,7 +414,7 @@ def nonlinear_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.Interva
 
 
 # ------------------------------------------------------------------ section 6 --------------
-def enclosure_by_band(res: iv.IntervalResult, ref: np.ndarray, t: np.ndarray, ay: np.ndarray,
+def enclosure_by_band(res: iv.IntervalRun, ref: np.ndarray, t: np.ndarray, ay: np.ndarray,
                       bands=AY_BANDS, t_skip: float = REVS_T_SKIP) -> list[dict]:
     """Enclosure of ``ref`` (N, 2) by ``res`` split by ``|a_y|`` bands [m/s^2] (``lo <= |a_y|
     < hi``), over samples after ``t_skip`` [s]. One row per band: ``lo``, ``hi``, ``share``
@@ -420,7 +423,7 @@ def enclosure_by_band(res: iv.IntervalResult, ref: np.ndarray, t: np.ndarray, ay
     rows = []
     for lo, hi in bands:
         mk = (ay >= lo) & (ay < hi)
-        mm = iv.interval_metrics(res, ref, t, t_skip=t_skip, mask=mk)
+        mm = ev.interval_metrics(res, ref, t, t_skip=t_skip, mask=mk)
         rows.append({"lo": lo, "hi": hi, "share": float(mk.mean()),
                      "enclosure_vy": mm["enclosure_vy"], "enclosure_r": mm["enclosure_r"]})
     return rows
@@ -443,11 +446,11 @@ def revs_experiment(quick: bool = False, span: float | None = None) -> dict:
     log.delta = despike(log.delta, REVS_DESPIKE)[0]
     rdes, rdes1 = IF.revs_design(), IF.revs_design(IF.revs_bands_single)
     kw = dict(steer_noise=IF.revs_steer_noise, y_noise=IF.revs_y_noise)
-    res = iv.run_on_log(rdes, log, *REVS_BOX0, **kw)
-    res1 = iv.run_on_log(rdes1, log, *REVS_BOX0, **kw)
+    res = ev.run_on_log(rdes, log, *REVS_BOX0, **kw)
+    res1 = ev.run_on_log(rdes1, log, *REVS_BOX0, **kw)
     ref = np.column_stack([log.vy, log.yaw_rate])
-    m = iv.interval_metrics(res, ref, log.t, t_skip=REVS_T_SKIP, width_t_skip=WIDTH_T_SKIP)
-    m1 = iv.interval_metrics(res1, ref, log.t, t_skip=REVS_T_SKIP, width_t_skip=WIDTH_T_SKIP)
+    m = ev.interval_metrics(res, ref, log.t, t_skip=REVS_T_SKIP, width_t_skip=WIDTH_T_SKIP)
+    m1 = ev.interval_metrics(res1, ref, log.t, t_skip=REVS_T_SKIP, width_t_skip=WIDTH_T_SKIP)
     by_ay = enclosure_by_band(res, ref, log.t, log.extra["ay_filt_mps2"])
     metrics = {f"revs_{k}": (v, "", "") for k, v in m.items()}
     metrics["revs_gamma"] = (rdes.gamma, "", "")
@@ -488,7 +491,7 @@ def fig_gains(gc: dict, po: dict | None = None):
     if po is not None:
         others = {"other $1/v_x$ polarity": po["designs"][(not IF.inv_vx_upper_first,
                                                          IF.epsilon_shift)]}
-    return iv.plot_gains(gc["des"], gc["L_printed"], gc["P_printed"], others)
+    return ev.plot_gains(gc["des"], gc["L_printed"], gc["P_printed"], others)
 
 
 def fig_convergence(cv: dict):
@@ -505,7 +508,7 @@ def fig_convergence(cv: dict):
                 continue
             for c in range(2):
                 ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), styles[lab],
-                               color=iv.PALETTE[i % len(iv.PALETTE)],
+                               color=ev.PALETTE[i % len(ev.PALETTE)],
                                label=f"{lab}, mode {i + 1} ($v_x$ = {cv['speeds'][i]:.1f} m/s)")
     for c, nm in enumerate(("$v_y$", "$r$")):
         ax[c].axhline(cv["frac"], color="k", lw=0.8, ls=":")
@@ -520,14 +523,14 @@ def fig_convergence(cv: dict):
 def fig_inputs_emulated(lpv: dict):
     """Steering [deg], speed with the band edges (22) [m/s] and sigma(t) of the emulated run
     (:func:`lpv_experiment` output); 3 axes."""
-    return iv.plot_inputs(lpv["t"], lpv["vx"], lpv["delta"], lpv["res"].sigma, lpv["bands"],
+    return ev.plot_inputs(lpv["t"], lpv["vx"], lpv["delta"], lpv["res"].sigma, lpv["bands"],
                           "Emulated Satory run: inputs and switching signal (22)")
 
 
 def fig_intervals_lpv(lpv: dict):
     """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation);
     2 axes."""
-    return iv.plot_intervals(lpv["t"], {"switched": lpv["res"]}, lpv["X"][:, 0], lpv["X"][:, 1],
+    return ev.plot_intervals(lpv["t"], {"switched": lpv["res"]}, lpv["X"][:, 0], lpv["X"][:, 1],
                              "Interval observer on the LPV truth (stiffness varying inside the "
                              "+-10 % box)", truth_label="LPV truth")
 
@@ -536,7 +539,7 @@ def fig_intervals_nonlinear(nl: dict):
     """Switched and single-mode intervals on the measured signals, nonlinear truth
     (:func:`nonlinear_experiment` output), each state with a panel of the interval relative
     to the truth; 4 axes."""
-    return iv.plot_intervals(nl["t"], {"switched": nl["res"], "single mode": nl["res1"]},
+    return ev.plot_intervals(nl["t"], {"switched": nl["res"], "single mode": nl["res1"]},
                              nl["truth"][:, 0], nl["truth"][:, 1],
                              "Measured signals, nonlinear truth (Pacejka + relaxation)",
                              truth_label="nonlinear truth", error_panel=True)
@@ -545,14 +548,14 @@ def fig_intervals_nonlinear(nl: dict):
 def fig_widths(nl: dict):
     """Interval widths of v_y [m/s] and r [rad/s] (log scale), switched vs single mode, on
     the measured signals; 2 axes."""
-    return iv.plot_widths(nl["t"], {"switched (3 modes)": nl["res"], "single mode": nl["res1"]},
+    return ev.plot_widths(nl["t"], {"switched (3 modes)": nl["res"], "single mode": nl["res1"]},
                           "Interval widths, measured signals")
 
 
 def fig_inputs_revs(revs: dict):
     """Steering, speed with the Revs bands and sigma(t) on the real log; 3 axes."""
     log = revs["log"]
-    return iv.plot_inputs(log.t, log.vx, log.delta, revs["res"].sigma, revs["rdes"].model.bands,
+    return ev.plot_inputs(log.t, log.vx, log.delta, revs["res"].sigma, revs["rdes"].model.bands,
                           "Revs 250 LM: inputs and switching signal")
 
 
@@ -562,16 +565,16 @@ def fig_intervals_revs(revs: dict, zoom: bool = False):
     log = revs["log"]
     if zoom:
         t0 = revs["t_zoom"]
-        return iv.plot_intervals(log.t, {"switched": revs["res"]}, log.vy, log.yaw_rate,
+        return ev.plot_intervals(log.t, {"switched": revs["res"]}, log.vy, log.yaw_rate,
                                  "Revs 250 LM, 60 s zoom", tlim=(t0, t0 + 60.0),
                                  truth_label="measured")
-    return iv.plot_intervals(log.t, {"switched": revs["res"]}, log.vy, log.yaw_rate,
+    return ev.plot_intervals(log.t, {"switched": revs["res"]}, log.vy, log.yaw_rate,
                              "Revs 250 LM: interval observer vs measured v_y (INS) and yaw rate",
                              truth_label="measured")
 
 
 # ------------------------------------------------------------------ interactive ------------
-def box_explorer(log: DriveLog, bands: iv.SpeedBands, rel_unc0: float = 0.10, seed: int = 0,
+def box_explorer(log: DriveLog, bands: ub.SpeedBands, rel_unc0: float = 0.10, seed: int = 0,
                  interactive: bool = False):
     """Slider for the stiffness box half-width (Assumption 3): each move re-solves Theorem 2
     (certified) for ``IF.vehicle`` with that box and reruns :func:`lpv_experiment` on ``log``
@@ -591,7 +594,7 @@ def box_explorer(log: DriveLog, bands: iv.SpeedBands, rel_unc0: float = 0.10, se
         veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
         try:
             des = IF.design(bands, veh)
-            des1 = IF.design(iv.SpeedBands((bands.edges[0], bands.edges[-1])), veh)
+            des1 = IF.design(ub.SpeedBands((bands.edges[0], bands.edges[-1])), veh)
         except InfeasibleDesign as exc:
             print(f"+-{100 * rel_unc:.0f} %: no certified design ({str(exc).splitlines()[0]})")
             return

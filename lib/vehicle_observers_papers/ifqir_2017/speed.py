@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 from vehicle_observers.core.timing import best_time
+from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 
 from vehicle_observers_papers.ifqir_2017 import constants as pp
@@ -26,7 +27,7 @@ def _inputs(T: float, dt: float = pp.Ts, seed: int = 0):
     t = np.arange(0.0, T, dt)
     vx = 0.2 + 16.8 * (1 - np.cos(2 * np.pi * t / min(T, 300.0))) / 2   # crosses every band
     u = 0.04 * np.sin(2 * np.pi * 0.3 * t) * np.sin(2 * np.pi * 0.02 * t)
-    xi = iv.random_stiffness_trajectory(pp.vehicle, len(t), dt, seed=seed, corr_time=2.0)
+    xi = ub.random_stiffness_trajectory(pp.vehicle, len(t), dt, seed=seed, corr_time=2.0)
     return t, vx, u, xi
 
 
@@ -44,8 +45,8 @@ def run(quick: bool = False) -> list[dict]:
                      "solver_seconds": des.solve_time, "gamma": des.gamma})
     des = pp.design(pp.bands)
     t, vx, u, xi = _inputs(T, dt)
-    X = iv.simulate_lpv(pp.vehicle, [0.0, 0.0], u, vx, xi, dt)           # compile / cache
-    sec = _best(lambda: iv.simulate_lpv(pp.vehicle, [0.0, 0.0], u, vx, xi, dt))
+    X = ub.simulate_lpv(pp.vehicle, [0.0, 0.0], u, vx, xi, dt)           # compile / cache
+    sec = _best(lambda: ub.simulate_lpv(pp.vehicle, [0.0, 0.0], u, vx, xi, dt))
     rows.append({"component": "LPV bicycle (3)-(4) truth, Euler", "steps": len(t),
                  "seconds": sec, "us_per_step": sec / len(t) * 1e6})
     y = X[:, 1]

@@ -24,6 +24,7 @@ from vehicle_observers.results import plotting as PLOT
 from vehicle_observers.results.rules import round_sig
 
 from vehicle_observers_papers.yacine_2015 import constants as yacine2015
+from vehicle_observers_papers.yacine_2015 import theorem1 as T1
 
 #: samples before this time [s] are excluded from "after convergence" metrics
 T_SETTLE = 5.0
@@ -36,7 +37,7 @@ V_MAX = 16.5
 X0_WRONG = (0.5, 0.1, 2.0, -2.0)
 
 
-def estimation_metrics(log: DriveLog, run: to.ObserverRun, t_settle: float = T_SETTLE,
+def estimation_metrics(log: DriveLog, run: to.TSRun, t_settle: float = T_SETTLE,
                        vx_rho_min: float = VX_RHO_MIN) -> dict:
     """RMSE / max error of vy (observer and premise (26)), Ff, Fr after ``t_settle``, and the
     curvature (11) RMSE / max where ``v_x > vx_rho_min``; clipping fractions of the premises."""
@@ -82,8 +83,8 @@ def differentiator_convergence(log: DriveLog, pe: to.PremiseEstimate, params=Non
     for name, err, band in (("vy", pe.vy - log.vy, band_vy),
                             ("dpsiL", pe.dpsiL - dpsi, band_vy / 10),
                             ("dyL", pe.dyL - dy, band_vy)):
-        out[f"T_first_{name}"] = to.convergence_time(log.t, err, band, mode="first")
-        out[f"T_last_{name}"] = to.convergence_time(log.t, err, band, mode="last")
+        out[f"T_first_{name}"] = T1.convergence_time(log.t, err, band, mode="first")
+        out[f"T_last_{name}"] = T1.convergence_time(log.t, err, band, mode="last")
     return out
 
 
@@ -145,11 +146,11 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     zt = to.ts_premises(log.vy, log.yaw_rate, log.delta, log.vx)
     ts = design.ts
     inside = bool(np.all((zt >= ts.zmin) & (zt <= ts.zmax)))
-    _, dl = to.premise_mismatch(ts, xt, log.delta, zt, run.z)
+    _, dl = T1.premise_mismatch(ts, xt, log.delta, zt, run.z)
     en = np.linalg.norm(xt - run.x, axis=1)
     dn = np.linalg.norm(dl, axis=1)
-    T = to.convergence_time(log.t, pe.vy - log.vy, band=band_vy)
-    b = to.bound_34(log.t, en[0], dn, T, design)
+    T = T1.convergence_time(log.t, pe.vy - log.vy, band=band_vy)
+    b = T1.bound_34(log.t, en[0], dn, T, design)
     a, a1, a2 = design.alpha, design.alpha1, design.alpha2
     B0 = np.sqrt(a2 / a1 * en[0] ** 2 + design.c / (a * a1) * b["delta_max_T"] ** 2 * np.exp(a * T))
     return {"alpha": a, "t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
@@ -237,7 +238,7 @@ def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
             continue
         run = to.run_observer(log, d, x0=np.asarray(x0, dtype=float))
         rows.append({"alpha": a, "feasible": True, "c": d.c,
-                     "T_settle_vy": to.convergence_time(log.t, run.vy - log.vy, band,
+                     "T_settle_vy": T1.convergence_time(log.t, run.vy - log.vy, band,
                                                         mode="first"),
                      **estimation_metrics(log, run)})
     return rows
@@ -334,7 +335,7 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
     return fig
 
 
-def fig_estimates(log: DriveLog, run: to.ObserverRun):
+def fig_estimates(log: DriveLog, run: to.TSRun):
     """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
     with an error panel (truth and estimate overlap at this scale)."""
     t = log.t
