@@ -181,15 +181,18 @@ def _q_white(out, use_ay: bool, skip: int = 50) -> float:
 def select(log: DriveLog, vehicle, use_ay: bool | None = None, window: DriveLog | None = None,
            candidates=AD.TERM_NAMES, maxiter: int = 250) -> Selection:
     """Greedy forward selection of the terms (module docstring) on the tuning window of
-    ``log`` (or ``window``). The stiffness box of the vehicle file (``uncertainty.
-    stiffness_rel``, 0 when absent) is always carried as consider states."""
+    ``log`` (or ``window``). The candidates are compared without consider states (the
+    likelihood of a model is not to be penalised for the uncertainty it declares); the
+    chosen terms are then re-tuned with the vehicle file's stiffness box (``uncertainty.
+    stiffness_rel``, 0 when absent) as consider states unless the stiffness is estimated,
+    and that filter is the one reported (last row of the table)."""
     from vehicle_observers.estimation.kalman_runs import tuning_window
 
     use_ay = (log.ay is not None) if use_ay is None else bool(use_ay)
     win = thin(window if window is not None else tuning_window(log, vehicle))
     rel = float(vehicle.uncertainty.get("stiffness_rel", 0.0))
     params = vehicle.params
-    cur = AD.Terms(consider=rel > 0)
+    cur = AD.Terms()
     tun, nll, p, out = fit_terms(win, params, cur, rel, use_ay, maxiter=maxiter)
     N = len(win)
     bic = 2 * nll + p * math.log(N)
@@ -219,6 +222,13 @@ def select(log: DriveLog, vehicle, use_ay: bool | None = None, window: DriveLog 
         cands.remove(c)
     for r in rows:
         r.pop("ok", None)
+    if rel > 0 and not cur.stiffness:
+        # the chosen terms with the stiffness box as consider states: the reported filter
+        cur = cur.with_(consider=True)
+        tun, nll, p, out = fit_terms(win, params, cur, rel, use_ay, start=tun, maxiter=maxiter)
+        rows.append({"terms": str(cur), "nll": nll, "bic": 2 * nll + p * math.log(N),
+                     "q_white": _q_white(out, use_ay), "accepted": True,
+                     "plausible": plausible(out, win, vehicle)})
     nis = out["nis"][50:]
     nis_ratio = float(np.mean(nis) / (2 if use_ay else 1)) if len(nis) else 1.0
     nu = out["nu"][50:]
