@@ -117,15 +117,24 @@ def remez_order(f_stop: float, f_pass: float, a_stop_db: float, a_pass_db: float
 
 
 def highpass_fir(spec=MBDS_HIGHPASS) -> np.ndarray:
-    """Taps of the equiripple high-pass FIR of :data:`MBDS_HIGHPASS` (``scipy.signal.remez``,
-    band weights from the ripple ratio as in ``firpm``)."""
-    from scipy.signal import remez
+    """Taps of the minimum-order equiripple high-pass FIR meeting :data:`MBDS_HIGHPASS`
+    (``scipy.signal.remez``, band weights from the ripple ratio as in ``firpm``): from the
+    :func:`remez_order` estimate, the order is raised by 2 until the stopband attenuation and
+    the passband ripple are met on a 8192-point grid (as MATLAB's minimum-order
+    ``design(d, 'equiripple')`` does; Herrmann's estimate 40 gives 59.7 dB, 42 meets 60)."""
+    from scipy.signal import freqz, remez
 
     fst, fp, ast, ap = spec
-    n = remez_order(fst, fp, ast, ap)
     dp = (10 ** (ap / 20) - 1) / (10 ** (ap / 20) + 1)
     ds = 10 ** (-ast / 20)
-    return remez(n + 1, [0.0, fst / 2, fp / 2, 0.5], [0.0, 1.0], weight=[dp / ds, 1.0], fs=1.0)
+    n = remez_order(fst, fp, ast, ap)
+    while True:
+        b = remez(n + 1, [0.0, fst / 2, fp / 2, 0.5], [0.0, 1.0], weight=[dp / ds, 1.0], fs=1.0)
+        w, h = freqz(b, worN=8192, fs=1.0)
+        a = np.abs(h)
+        if a[w <= fst / 2].max() <= ds and np.all(np.abs(a[w >= fp / 2] - 1) <= dp) or n > 400:
+            return b
+        n += 2
 
 
 def highpass_std(x, taps=None) -> float:

@@ -119,8 +119,12 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
            "adaptation, kinematic blend) chosen per log by BIC of the measured-channel "
            "innovations; v_y std and an identifiability verdict",
            optional_columns=("ay_mps2",), paper="this library")
-def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S, **_):
-    return _run_adaptive(log, vehicle, "adaptive-ekf", progress=progress, max_gap=max_gap)
+def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
+                 candidates=AD.TERM_NAMES, maxiter: int = 250, **_):
+    """``candidates``: the terms the selection may add; ``maxiter``: Nelder-Mead iterations
+    per tuning."""
+    return _run_adaptive(log, vehicle, "adaptive-ekf", progress=progress, max_gap=max_gap,
+                         candidates=candidates, maxiter=maxiter)
 
 
 @estimator("linear-kf", "plain linear Kalman filter on the vehicle file (linear tyres of the "
