@@ -66,3 +66,24 @@ def test_registered_adaptive_ekf_reports_std_and_verdict():
     assert "bias" in tr.info["terms"]
     cover = np.mean(np.abs(tr["vy_mps"] - log.vy)[100:] <= 2 * tr["vy_std_mps"][100:])
     assert cover > 0.9
+
+
+def test_vehicle_file_terms_table_fixes_terms(tmp_path):
+    from vehicle_observers.models.vehicle import VehicleFileError, builtin_vehicles
+
+    src = builtin_vehicles()["yacine2015"].read_text()
+    f = tmp_path / "car.toml"
+    f.write_text(src + "\n[terms]\nroll = true\nbias = false\n")
+    veh = load_vehicle(f)
+    assert veh.terms == {"roll": True, "bias": False}
+    log = AD.simulate(veh.params, T, np.full_like(T, 20.0), 0.03 * np.sin(2 * np.pi * 0.5 * T),
+                      bias=0.4)
+    sel = SE.select(log, veh, window=log, candidates=("bias",), maxiter=60)
+    assert sel.terms.roll and not sel.terms.bias          # bias present but switched off
+    assert all("bias" not in r["terms"] for r in sel.rows)
+    f.write_text(src + "\n[terms]\nrol = true\n")
+    with pytest.raises(VehicleFileError, match="terms.rol"):
+        load_vehicle(f)
+    f.write_text(src + "\n[terms]\nroll = 1\n")
+    with pytest.raises(VehicleFileError, match="true or false"):
+        load_vehicle(f)

@@ -181,7 +181,8 @@ def _q_white(out, use_ay: bool, skip: int = 50) -> float:
 def select(log: DriveLog, vehicle, use_ay: bool | None = None, window: DriveLog | None = None,
            candidates=AD.TERM_NAMES, maxiter: int = 250) -> Selection:
     """Greedy forward selection of the terms (module docstring) on the tuning window of
-    ``log`` (or ``window``). The candidates are compared without consider states (the
+    ``log`` (or ``window``). Terms the vehicle file's ``[terms]`` table sets are fixed (on
+    or off) and not tried. The candidates are compared without consider states (the
     likelihood of a model is not to be penalised for the uncertainty it declares); the
     chosen terms are then re-tuned with the vehicle file's stiffness box (``uncertainty.
     stiffness_rel``, 0 when absent) as consider states unless the stiffness is estimated,
@@ -192,7 +193,9 @@ def select(log: DriveLog, vehicle, use_ay: bool | None = None, window: DriveLog 
     win = thin(window if window is not None else tuning_window(log, vehicle))
     rel = float(vehicle.uncertainty.get("stiffness_rel", 0.0))
     params = vehicle.params
-    cur = AD.Terms()
+    fixed = getattr(vehicle, "terms", {}) or {}
+    cur = AD.Terms(**{k: True for k, v in fixed.items() if v})
+    candidates = [c for c in candidates if c not in fixed]
     tun, nll, p, out = fit_terms(win, params, cur, rel, use_ay, maxiter=maxiter)
     N = len(win)
     bic = 2 * nll + p * math.log(N)
