@@ -59,7 +59,7 @@ from numba import njit
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.core.protocol import ObserverBase, Trajectory
 from vehicle_observers.models.lateral import LateralParams
-from vehicle_observers.models.tires import magic_formula_slope
+from vehicle_observers.models.tires import magic_formula, magic_formula_slope
 
 NX = 6
 STATE_NAMES = ("vy_mps", "yaw_rate_radps", "ay_bias_mps2", "bank_mps2", "kf", "kr")
@@ -180,6 +180,21 @@ def _model(x, delta, vx, ayin, P, th, f, A):
 
 
 @njit(cache=True)
+def _model_f(x, delta, vx, ayin, P, th, f):
+    """:func:`_model` without the Jacobian (the RK4 stages 2-4)."""
+    m, Iz, af, ar = P[0], P[1], P[2], P[3]
+    vy, r, b, d, kf, kr = x[0], x[1], x[2], x[3], x[4], x[5]
+    g, wmax, r0 = th[7], th[8], th[9]
+    Ff = kf * magic_formula(delta - (vy + af * r) / vx, P[7], P[8], P[9], P[10])
+    Fr = kr * magic_formula(-(vy - ar * r) / vx, P[11], P[12], P[13], P[14])
+    w = wmax * r * r / (r * r + r0 * r0) if wmax > 0.0 else 0.0
+    f[0] = (1.0 - w) * (Ff + Fr) / m + w * (ayin - b) / g - vx * r + d
+    f[1] = (af * Ff - ar * Fr) / Iz
+    for i in range(2, 6):
+        f[i] = 0.0
+
+
+@njit(cache=True)
 def _measure(x, delta, vx, P, th, yh, H):
     """``h(x) = [r, g_ay (F_f + F_r)/m + b]`` and its Jacobian ``H`` (2, 6)."""
     m, af, ar = P[0], P[2], P[3]
@@ -218,13 +233,13 @@ def _predict(x, Pm, delta, vx, ayin, h, P, th, W, V):
             F[i, j] += h * A[i, j] + 0.5 * h * h * (A[i, 0] * A[0, j] + A[i, 1] * A[1, j])
     for i in range(6):
         tmp[i] = x[i] + 0.5 * h * k1[i]
-    _model(tmp, delta, vx, ayin, P, th, k2, T)
+    _model_f(tmp, delta, vx, ayin, P, th, k2)
     for i in range(6):
         tmp[i] = x[i] + 0.5 * h * k2[i]
-    _model(tmp, delta, vx, ayin, P, th, k3, T)
+    _model_f(tmp, delta, vx, ayin, P, th, k3)
     for i in range(6):
         tmp[i] = x[i] + h * k3[i]
-    _model(tmp, delta, vx, ayin, P, th, k4, T)
+    _model_f(tmp, delta, vx, ayin, P, th, k4)
     for i in range(6):
         x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     # T = F Pm (rows 2..5 are those of Pm); Pm = T F^T (columns 2..5 those of T) + Q h
