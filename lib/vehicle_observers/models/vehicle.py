@@ -25,6 +25,9 @@ Format (SI units; see ``vehicles/yacine2015.toml`` and ``vehicles/revs250lm.toml
     [kalman]        # optional: fixed EKF/UKF noise (else tuned by ML on the log)
     q_vy = ...; q_r = ...; q_b = ...; R_r = ...; R_ay = ...
 
+    [terms]         # optional: model terms of the adaptive EKF (true / false; absent: the
+    roll = true     # selection rule decides): roll, bias, bank, stiffness, blend
+
 Bad files raise :class:`VehicleFileError` with the file name and the key, e.g.
 ``revs.toml: key 'tire_front.D' must be a number > 0, got -3``. Unknown keys (a typo such as
 ``ls = 3.0``) are errors, and every constant must lie in the plausible range of a road
@@ -99,6 +102,7 @@ class Vehicle:
     uncertainty: dict = field(default_factory=dict)
     kalman: KalmanTuning | None = None
     path: str = ""
+    terms: dict = field(default_factory=dict)
 
     @property
     def C_f(self) -> float:
@@ -130,7 +134,9 @@ def builtin_vehicles() -> dict[str, Path]:
 #: keys a vehicle file may hold (anything else is an error: a typo such as ``ls = 3.0`` must
 #: not be ignored silently)
 TOP_KEYS = ("name", "m", "I_z", "a_f", "a_r", "r_f", "r_r", "l_s", "tire_front", "tire_rear",
-            "uncertainty", "kalman")
+            "uncertainty", "kalman", "terms")
+#: keys of the optional ``[terms]`` table (booleans; vehicle_observers.baselines.adaptive)
+TERM_KEYS = ("roll", "bias", "bank", "stiffness", "blend")
 TYRE_KEYS = {"pacejka": ("model", "B", "C", "D", "E"),
              "linear": ("model", "cornering_stiffness")}
 #: plausible range of each constant of a road vehicle (SI units); outside it the file is
@@ -257,4 +263,14 @@ def load_vehicle(path) -> Vehicle:
                                        f"{', '.join(keys)})")
         vals = [_num(doc, f"kalman.{k}", fname, allow_zero=(k == "q_b")) for k in keys]
         kal = KalmanTuning.from_theta(vals, source=f"{fname} [kalman]")
-    return Vehicle(name=name, params=params, uncertainty=unc, kalman=kal, path=str(p))
+    terms = doc.get("terms", {})
+    if not isinstance(terms, dict):
+        raise VehicleFileError(f"{fname}: key 'terms' must be a table")
+    for k, v in terms.items():
+        if k not in TERM_KEYS:
+            raise VehicleFileError(f"{fname}: unknown key 'terms.{k}' (expected "
+                                   f"{', '.join(TERM_KEYS)})")
+        if not isinstance(v, bool):
+            raise VehicleFileError(f"{fname}: key 'terms.{k}' must be true or false, got {v!r}")
+    return Vehicle(name=name, params=params, uncertainty=unc, kalman=kal, path=str(p),
+                   terms=dict(terms))

@@ -1,0 +1,187 @@
+"""Registrations of the peers, the baselines and the adaptive / fused estimators.
+
+* ``mbds-kf`` - the linear single-track KF published with the Revs log
+  (:func:`vehicle_observers.baselines.peers.mbds_kf`), on the vehicle file's zero-slip
+  stiffnesses (on ``revs250lm`` exactly their constants), their noise rule;
+* ``mbds-fg`` (offline batch) and ``mbds-fg-lag5`` (fixed lag of 5 samples: 4-sample
+  look-ahead, not causal) - their factor graph;
+* ``linear-kf`` - a plain linear Kalman filter on the vehicle file (linear tyres of the
+  zero-slip slopes, no added term, stiffness box considered, ML noise on measured channels);
+* ``open-loop-linear`` - the linear single-track model driven by steering and speed;
+  ``vy-zero`` - ``v_y = 0``;
+* ``adaptive-ekf`` - :mod:`vehicle_observers.baselines.adaptive` with the terms and tuning
+  chosen by :func:`vehicle_observers.estimation.selection.select`, a ``vy_std_mps`` column
+  (:func:`~vehicle_observers.estimation.selection.vy_std`) and the identifiability verdict
+  in ``info["verdict"]`` (one line in ``info["verdict_line"]``);
+* ``fusion-interval`` - the same filter truncated to the ``interval-coordinates`` bounds
+  (:mod:`vehicle_observers.baselines.fusion`).
+
+Every selection is cached per log (measured channels and vehicle constants hashed) within
+the process, so ``adaptive-ekf`` and ``fusion-interval`` on the same log select once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from vehicle_observers.baselines import adaptive as AD
+from vehicle_observers.baselines import fusion as FU
+from vehicle_observers.baselines import peers as PE
+from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.data.logs import DriveLog
+from vehicle_observers.estimation import segments
+from vehicle_observers.estimation import selection as SE
+from vehicle_observers.estimation.registry import estimator
+from vehicle_observers.models.tires import LinearTire
+
+_SELECTIONS: dict[str, SE.Selection] = {}
+
+
+def _key(log: DriveLog, vehicle, tag: str) -> str:
+    h = hashlib.sha256(tag.encode())
+    for a in (log.t - log.t[0], log.vx, log.delta, log.yaw_rate, log.ay):
+        h.update(b"-" if a is None else np.ascontiguousarray(a, float).tobytes())
+    h.update(repr((vehicle.params.as_array().tolist(), sorted(vehicle.uncertainty.items())))
+             .encode())
+    return h.hexdigest()
+
+
+def linear_vehicle(vehicle):
+    """The vehicle file with linear tyres of its zero-slip slopes."""
+    p = vehicle.params
+    return replace(vehicle, params=replace(p, tire_f=LinearTire(p.tire_f.cornering_stiffness),
+                                           tire_r=LinearTire(p.tire_r.cornering_stiffness)))
+
+
+def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=AD.TERM_NAMES,
+                  maxiter: int = 250) -> tuple[SE.Selection, float]:
+    """The (cached) :func:`selection.select` of ``log``; ``linear``: no term, linear tyres
+    (the ``linear-kf`` tuning). Returns (selection, seconds spent now)."""
+    cands = () if linear else tuple(candidates)
+    key = _key(log, vehicle, f"{linear}{cands}{maxiter}")
+    if key in _SELECTIONS:
+        return _SELECTIONS[key], 0.0
+    t0 = time.perf_counter()
+    veh = linear_vehicle(vehicle) if linear else vehicle
+    sel = SE.select(log, veh, candidates=cands, maxiter=maxiter)
+    _SELECTIONS[key] = sel
+    return sel, time.perf_counter() - t0
+
+
+def _columns(X, std, log, vehicle) -> dict:
+    p = vehicle.params
+    cols = {"vy_mps": X[:, 0], "yaw_rate_radps": X[:, 1],
+            "beta_rad": np.arctan2(X[:, 0], log.vx), "vy_std_mps": std,
+            "ay_bias_mps2": X[:, 2], "bank_mps2": X[:, 3], "kf": X[:, 4], "kr": X[:, 5]}
+    a_f = log.delta - (X[:, 0] + p.a_f * X[:, 1]) / log.vx
+    a_r = -(X[:, 0] - p.a_r * X[:, 1]) / log.vx
+    cols["Ff_N"] = X[:, 4] * p.tire_f.force(a_f)
+    cols["Fr_N"] = X[:, 5] * p.tire_r.force(a_r)
+    return cols
+
+
+def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused=None,
+                  progress=None, max_gap=segments.MAX_GAP_S, margin: float = 0.0,
+                  candidates=AD.TERM_NAMES, maxiter: int = 250):
+    sel, ssec = selection_for(log, vehicle, linear, candidates, maxiter)
+    veh = linear_vehicle(vehicle) if linear else vehicle
+    use_ay = sel.use_ay
+
+    def one(sub, a):
+        t, vx, d, r, ay = SE._arrays(sub)
+        if fused is None:
+            obs = AD.AdaptiveEKF(veh.params, sel.terms, sel.tuning, use_ay)
+            res = obs.filter(t, vx, d, r, ay)
+        else:
+            obs = FU.IntervalFusedEKF(veh.params, sel.terms, sel.tuning, use_ay, margin=margin)
+            res = obs.filter_fused(t, vx, d, r, ay, fused[0][a:a + len(sub)],
+                                   fused[1][a:a + len(sub)])
+        std = SE.vy_std(res["Pd"][:, 0], vx, sel.inflation)
+        return _columns(res["X"], std, sub, veh), res["seconds"]
+
+    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_std_mps", "ay_bias_mps2",
+                   "bank_mps2", "kf", "kr", "Ff_N", "Fr_N")
+    ok = segments.moving_rows(log, vehicle)
+    cols, sec, n = segments.run_stretches(one, log, vehicle, ok, max_gap, progress)
+    v = SE.verdict(cols["vy_mps"], cols["vy_std_mps"], log, vehicle, use_ay, ok)
+    info = {"selection": sel, "terms": str(sel.terms), "tuning": sel.tuning,
+            "verdict": v["verdict"], "verdict_line": v["line"], "signal_to_std": v["signal_to_std"],
+            "stretches": n, "inflation": sel.inflation}
+    return Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
+                                   estimator=name, info=info)
+
+
+@estimator("adaptive-ekf", "EKF with the model terms (roll gradient, a_y bias, bank, stiffness "
+           "adaptation, kinematic blend) chosen per log by BIC of the measured-channel "
+           "innovations; v_y std and an identifiability verdict",
+           optional_columns=("ay_mps2",), paper="this library")
+def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
+                 candidates=AD.TERM_NAMES, maxiter: int = 250, **_):
+    """``candidates``: the terms the selection may add; ``maxiter``: Nelder-Mead iterations
+    per tuning."""
+    return _run_adaptive(log, vehicle, "adaptive-ekf", progress=progress, max_gap=max_gap,
+                         candidates=candidates, maxiter=maxiter)
+
+
+@estimator("linear-kf", "plain linear Kalman filter on the vehicle file (linear tyres of the "
+           "zero-slip slopes, measures r and a_y), ML noise on measured channels",
+           optional_columns=("ay_mps2",), paper="baseline")
+def run_linear_kf(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S, **_):
+    return _run_adaptive(log, vehicle, "linear-kf", linear=True, progress=progress,
+                         max_gap=max_gap)
+
+
+@estimator("fusion-interval", "adaptive EKF truncated to the interval-coordinates bounds of "
+           "v_y at every sample (truncated Gaussian)", optional_columns=("ay_mps2",),
+           vehicle_keys=("m", "I_z", "a_f", "a_r", "tire_front", "tire_rear",
+                         "uncertainty.stiffness_rel", "uncertainty.vx_min",
+                         "uncertainty.vx_max"), paper="this library")
+def run_fusion(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
+               margin: float = 0.0, interval: Trajectory | None = None, **_):
+    from vehicle_observers.estimation.registry import get
+
+    iv = interval if interval is not None else get("interval-coordinates").run(log, vehicle)
+    c = iv.columns
+    tr = _run_adaptive(log, vehicle, "fusion-interval", fused=(c["vy_lo_mps"], c["vy_hi_mps"]),
+                       progress=progress, max_gap=max_gap, margin=margin)
+    tr.info["interval_seconds"] = iv.seconds
+    return tr
+
+
+@estimator("mbds-kf", "linear single-track KF of MBDS/sideslip-angle-vehicle-estimation "
+           "(Leanza et al. 2021), their noise rule", columns=("ay_mps2",), paper="leanza2021")
+def run_mbds_kf(log: DriveLog, vehicle, **_):
+    return PE.mbds_kf(log, PE.SingleTrack.from_vehicle(vehicle))
+
+
+@estimator("mbds-fg", "factor graph of Leanza et al. 2021 (GTSAM model; batch, OFFLINE)",
+           columns=("ay_mps2",), causal=False, paper="leanza2021")
+def run_mbds_fg(log: DriveLog, vehicle, **_):
+    return PE.mbds_fg(log, PE.SingleTrack.from_vehicle(vehicle), window=0)
+
+
+@estimator("mbds-fg-lag5", "factor graph of Leanza et al. 2021, fixed-lag window of 5 samples "
+           "(4-sample look-ahead: not causal)", columns=("ay_mps2",), causal=False,
+           paper="leanza2021")
+def run_mbds_fg_lag(log: DriveLog, vehicle, **_):
+    return PE.mbds_fg(log, PE.SingleTrack.from_vehicle(vehicle), window=PE.MBDS_FIXED_LAG)
+
+
+@estimator("open-loop-linear", "linear single-track model driven by the measured steering and "
+           "speed (no measurement feedback)", paper="baseline")
+def run_open_loop(log: DriveLog, vehicle, **_):
+    t0 = time.perf_counter()
+    vy = PE.open_loop_linear(log, vehicle.params)
+    return Trajectory.from_columns(log.t, {"vy_mps": vy, "beta_rad": np.arctan2(vy, log.vx)},
+                                   seconds=time.perf_counter() - t0, estimator="open-loop-linear")
+
+
+@estimator("vy-zero", "v_y = 0 (the do-nothing baseline)", paper="baseline")
+def run_vy_zero(log: DriveLog, vehicle, **_):
+    z = np.zeros(len(log))
+    return Trajectory.from_columns(log.t, {"vy_mps": z, "beta_rad": z}, seconds=0.0,
+                                   estimator="vy-zero")

@@ -1,0 +1,61 @@
+"""Leaderboard targets are computed from the rows (planted values flip them), "best causal"
+excludes baselines and smoothers, and the consistency columns follow their definition."""
+
+import numpy as np
+import pytest
+from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.data.logs import DriveLog
+from vehicle_observers_papers.leanza_2021 import leaderboard as LB
+
+
+def _row(ds, o, v, causal=True, **kw):
+    return {"dataset": ds, "observer": o, "rmse_vy": v, "rmse_beta_deg": 10 * v,
+            "causal": causal, **kw}
+
+
+def _table(best=0.05):
+    return [_row("plant_x", "open-loop-linear", 0.1), _row("plant_x", "linear-kf", 0.07),
+            _row("plant_x", "vy-zero", 0.3), _row("plant_x", "rts", 0.01, causal=False),
+            _row("plant_x", "adaptive-ekf", best, coverage_2sigma=0.95, nees=1.1,
+                 verdict="informative"),
+            _row("revs", "mbds-fg", 0.24, causal=False), _row("revs", "vy-zero", 0.74),
+            _row("revs", "adaptive-ekf", 0.19, coverage_2sigma=0.8, nees=3.0,
+                 verdict="informative")]
+
+
+def test_targets_are_computed_and_flip():
+    tg = {(t["dataset"], t["target"]): t for t in LB.targets(_table(), us_per_step=2.0)}
+    ol = tg[("plant_x", "best causal <= 0.8 x open loop")]
+    assert ol["met"] and ol["value"] == pytest.approx(0.5)     # rts (offline) not counted
+    assert tg[("plant_x", "best causal <= 0.85 x linear KF")]["met"]
+    assert tg[("revs", "best causal v_y RMSE <= 0.2 m/s")]["met"]
+    beta = tg[("revs", "best causal sideslip RMSE <= 0.7 x MBDS factor graph")]
+    assert beta["value"] == pytest.approx(1.9 / 2.4) and not beta["met"]
+    assert not tg[("revs", "adaptive-ekf 2-sigma coverage in [0.9, 0.98]")]["met"]
+    assert tg[("all", "richest causal cost <= 3 us/step")]["met"]
+    tg2 = {(t["dataset"], t["target"]): t for t in LB.targets(_table(best=0.09), 4.0)}
+    assert not tg2[("plant_x", "best causal <= 0.8 x open loop")]["met"]
+    assert not tg2[("all", "richest causal cost <= 3 us/step")]["met"]
+
+
+def test_uninformative_flag_satisfies_the_vy_zero_target():
+    t = _table(best=0.5)
+    key = ("plant_x", "beats v_y = 0 or flagged uninformative")
+    assert not {(x["dataset"], x["target"]): x for x in LB.targets(t)}[key]["met"]
+    t[4]["verdict"] = "uninformative"
+    assert {(x["dataset"], x["target"]): x for x in LB.targets(t)}[key]["met"]
+
+
+def test_score_row_coverage_and_nees_of_a_consistent_std():
+    rng = np.random.default_rng(0)
+    n = 100_000
+    t = np.arange(n) * 0.01
+    ref = rng.standard_normal(n)
+    s = np.full(n, 0.2)
+    vy = ref + s * rng.standard_normal(n)
+    log = DriveLog(t=t, vx=np.full(n, 20.0), delta=np.zeros(n), yaw_rate=np.zeros(n), vy=ref)
+    tr = Trajectory.from_columns(t, {"vy_mps": vy, "vy_std_mps": s})
+    r = LB.score_row(tr, log, np.ones(n, bool))
+    assert r["coverage_2sigma"] == pytest.approx(0.9545, abs=0.003)
+    assert r["nees"] == pytest.approx(1.0, abs=0.02)
+    assert r["rmse_vy"] == pytest.approx(0.2, rel=0.01)
