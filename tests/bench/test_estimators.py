@@ -43,7 +43,7 @@ def test_one_row_per_registered_estimator_plugin_included(short_log, zero_estima
         assert set(BE.COLUMNS) - {"error"} <= set(r), r
         assert r["steps"] == len(short_log)
         assert "error" not in r, r
-        assert r["us_per_step"] > 0 or r["component"] == zero_estimator
+        assert r["us_per_step"] > 0 or r["component"] in (zero_estimator, "vy-zero")  # no work
         assert r["seconds"] > 0
     # the ratio is filterpy's EKF cost per step over the row's, from the same run
     ref = by["ekf-filterpy"]["us_per_step"]
