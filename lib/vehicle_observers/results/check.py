@@ -182,7 +182,7 @@ def main(argv=None) -> int:
     drifts = compare_dirs(committed, regenerated, only)
     print(drift_table(drifts))
     bad = [d for d in drifts if not d.ok]
-    print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts")
+    print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts or kinds")
     return 1 if bad else 0
 
 
