@@ -146,7 +146,8 @@ def compare_dirs(committed: Path, regenerated: Path, only=()) -> list[Drift]:
 def drift_table(drifts: list[Drift]) -> str:
     """Markdown table of the drifts (or a line saying there are none)."""
     if not drifts:
-        return "no drift: every metric identical at its stored precision, every verdict identical"
+        return ("no drift: every metric identical at its stored precision, every verdict and kind "
+                "identical")
     rows = ["| notebook | what | committed | regenerated | tolerance | within |",
             "|---|---|---|---|---|---|"]
     for d in drifts:

@@ -392,10 +392,10 @@ def claims(g: dict) -> list[dict]:
     """Claim keyword dicts for :meth:`Report.claim` from the report's stored metric values
     ``g`` (``rep.values()``); each verdict is computed by its :class:`Rule`."""
     return [
-        dict(paper=PAPER, item="Fig. 3", figure="fig3_steering", metric="max |delta| [rad]",
+        dict(paper=PAPER, kind="paper", item="Fig. 3", figure="fig3_steering", metric="max |delta| [rad]",
              rule=Rule.no_number("max_abs_delta", paper="steering of the driver (values lost)"),
              note="signal chosen here: the paper's values were lost"),
-        dict(paper=PAPER, item="Fig. 4 (v_y, not measured)", figure="fig4_vy",
+        dict(paper=PAPER, kind="paper", item="Fig. 4 (v_y, not measured)", figure="fig4_vy",
              metric="rmse_vy (b) / RMS of the true v_y, with noise, estimated premises",
              rule=Rule("rmse_vy_b / rms_vy_true", reproduced="value <= 0.1",
                        partly="value <= 0.5", informative="rank_CM == rank_M and not vy_measured",
@@ -408,7 +408,7 @@ def claims(g: dict) -> list[dict]:
                    f"premise error max {fmt(g['premise_err_max'])} changes rmse_vy from "
                    f"{fmt(g['rmse_vy_b_truepremise'])} (true premises) to "
                    f"{fmt(g['rmse_vy_b'])} m/s")),
-        dict(paper=PAPER, item="Figs. 4-5 (faster convergence)", figure="fig5_yaw_rate",
+        dict(paper=PAPER, kind="paper", item="Figs. 4-5 (faster convergence)", figure="fig5_yaw_rate",
              metric="vy_conv_time (b) / (a), noise-free",
              rule=Rule("vy_conv_time_b / vy_conv_time_a", reproduced="value <= 0.9",
                        partly="value < 1", paper="Theorem 2 converges faster than [22]",
@@ -417,7 +417,7 @@ def claims(g: dict) -> list[dict]:
              note=(f"noise-free: r RMSE {fmt(g['rmse_r_b_noisefree'])} (b) vs "
                    f"{fmt(g['rmse_r_a_noisefree'])} rad/s (a); the v_y mode is not moved by "
                    "any gain")),
-        dict(paper=PAPER, item="Fig. 6 (fault estimation)", figure="fig6_fault",
+        dict(paper=PAPER, kind="paper", item="Fig. 6 (fault estimation)", figure="fig6_fault",
              metric="fault delay (b) / (a), noise-free",
              rule=Rule("fault_delay_b / fault_delay_a", reproduced="value <= 0.9",
                        partly="value < 1",
@@ -427,7 +427,7 @@ def claims(g: dict) -> list[dict]:
              note=(f"noise-free delays {fmt(g['fault_delay_b'])} s (b), "
                    f"{fmt(g['fault_delay_a'])} s (a); with noise fault RMSE "
                    f"{fmt(g['rmse_f_b'])} (b) vs {fmt(g['rmse_f_a'])} rad (a)")),
-        dict(paper=PAPER, item="Fig. 7 / Assumption 2", figure="fig7_membership_derivatives",
+        dict(paper=PAPER, kind="paper", item="Fig. 7 / Assumption 2", figure="fig7_membership_derivatives",
              metric="max |dh/dt| of the run (fault step left out) / phi (from input bounds)",
              rule=Rule("max_abs_hdot_smooth / phi_design", reproduced="value <= 1",
                        informative="value >= 0.1",
@@ -439,7 +439,7 @@ def claims(g: dict) -> list[dict]:
                   f"v_x and the tyre peak forces; across the fault step the finite difference "
                   f"reaches {fmt(g['max_abs_hdot'])} 1/s (a Dirac sampled at 1 kHz, outside "
                   "the fault-rate bound)"),
-        dict(paper=PAPER, item="Remark 1 / Sec. 6", figure="feasibility_map",
+        dict(paper=PAPER, kind="paper", item="Remark 1 / Sec. 6", figure="feasibility_map",
              metric="cells with phi >= bound where only (b) is feasible",
              rule=Rule("map_n_only_b_admissible", reproduced="value >= 1",
                        partly="map_containment and map_max_ratio_admissible <= 1 + 1e-4",
@@ -453,7 +453,7 @@ def claims(g: dict) -> list[dict]:
                    f"{fmt(g['map_max_ratio_admissible'], 4)}; cells where only (b) is feasible: "
                    f"{g['map_n_only_b']} in all, {g['map_n_only_b_admissible']} with "
                    "phi >= bound")),
-        dict(paper=PAPER, item="Remark 1, C = I comparison variant", figure="feasibility_map",
+        dict(paper=PAPER, kind="paper", item="Remark 1, C = I comparison variant", figure="feasibility_map",
              metric="cells with phi >= 10 where only (b) reaches gamma <= 0.55",
              rule=Rule("full_map_n_only_b_admissible", reproduced="value >= 1",
                        partly="full_map_containment and full_map_max_ratio_admissible <= 1 + 1e-4",
@@ -465,7 +465,7 @@ def claims(g: dict) -> list[dict]:
                    f"Assumption 2), {g['full_map_n_only_b_admissible']} at phi = 10; "
                    f"gamma_b / gamma_a {fmt(g['full_map_min_ratio_admissible'], 4)} to "
                    f"{fmt(g['full_map_max_ratio_admissible'], 4)} there")),
-        dict(paper=PAPER, item="Sec. 1 / (23a) vs EKF baseline", figure="fault_uio_vs_ekf",
+        dict(paper=PAPER, kind="baseline", item="Sec. 1 / (23a) vs EKF baseline", figure="fault_uio_vs_ekf",
              metric="spurious fault before the fault, noise-free: [EKF q = s^2 dt, UIO (b)] "
                     "/ settled fault error of (b)",
              rule=Rule("[rmse_f_ekf_before_noisefree / rmse_f_b_settled_noisefree, "
@@ -478,7 +478,6 @@ def claims(g: dict) -> list[dict]:
                        source="chosen here: the paper has no filter; decoupled as a spurious "
                               "fault below 10 % of the settled error (no reason for 10 % "
                               "recorded), and a fault delay no longer than either EKF's"),
-             kind="baseline",
              note=(f"noise-free fault delays: UIO (b) {fmt(g['fault_delay_b'])} s, EKF "
                    f"q = s^2 dt {fmt(g['fault_delay_ekf'])} s"
                    f"{'' if g['fault_delay_ekf_settles'] else ' (never settles)'}, EKF q = s^2 tau "

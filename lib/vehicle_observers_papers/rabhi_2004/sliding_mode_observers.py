@@ -676,7 +676,7 @@ def paper_claims(m: dict) -> list[dict]:
                   f"{m['B_defl_belgian_U_rmse_pct_mean']:.3g} % raw; simulated car on the real "
                   "Belgian-block profile (the paper used a measured car and the LPA)"),
     ]
-    return [dict(paper=PAPER, **c) for c in rows]
+    return [dict(paper=PAPER, kind="paper", **c) for c in rows]
 
 
 # ----------------------------------------------------------------- figures ----------------
