@@ -72,6 +72,13 @@ def test_alpha_feasibility_is_limited_by_the_added_bound_not_by_33(m):
     assert all(r[2] for r in rows if r[1] == "(33) + disk |lambda| < 600")
     assert all(r[4].startswith("Xi[") for r in rows if not r[2])
     assert m["lmi_alone_feasible_all"] is True and m["lmi_default_feasible_alpha1"] is False
+    # sign-feasible is not certified: below a relative margin of 1e-9 or above cond(P) = 1e8
+    # the certificate is inconclusive (design.lmi.Certificate.status); (33) alone at alpha = 10
+    for feas, cond, rel, status in zip(s["feasible"], s["P_condition"], s["xi_min_relative"],
+                                       s["status"]):
+        if feas:
+            assert status == ("certified" if rel >= 1e-9 and cond <= 1e8 else "inconclusive")
+    assert m["lmi_alone_certified_all"] is False and m["lmi_status"] == "certified"
 
 
 def test_noise_free_levels(m):

@@ -365,6 +365,12 @@ def test_segment_figure(setup):
                                     A_REG, R_REG, r=1, n_points=3)
     fig = ds.fig_segment_bounds(cert, jac["jts"], obs["t"], t_max=0.5)
     assert len(fig.axes) == 2 and fig.axes[1].get_xlabel() == "t [s]"
+    # xi1 = df4/dx2 with x2 a curvature [1/m] and f4 [rad/s^2]: m/s^2; xi2 = df4/dx3: 1/s^2
+    units = ["[m/s$^2$]", "[1/s$^2$]"]
+    assert [ax.get_ylabel().split(" ")[-1] for ax in fig.axes] == units
+    plt.close(fig)
+    fig = ds.fig_jacobian_bounds(jac)
+    assert [ax.get_ylabel().split(" ")[-1] for ax in fig.axes] == units
     plt.close(fig)
 
 

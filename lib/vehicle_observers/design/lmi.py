@@ -106,13 +106,57 @@ class ConstraintCheck:
         return self.margin > 0 if self.kind in ("neg", "pos") else self.margin >= 0
 
 
+#: Smallest relative margin (margin / largest absolute eigenvalue of the same matrix) that a
+#: certificate accepts as conclusive. The interior-point solver (Clarabel) stops at relative
+#: residuals and gaps of about 1e-8: a constraint met by less than 1e-9 of its own scale holds
+#: only to the accuracy of the solver's iterate (moving the decision variables by that accuracy
+#: can flip the sign), even though LAPACK resolves the eigenvalue itself to ~1e-16.
+MIN_RELATIVE_MARGIN = 1e-9
+#: Largest condition number lambda_max / lambda_min of a positive-definite decision matrix (the
+#: ``"pos"`` constraints, e.g. the Lyapunov matrix ``P > 0``) that a certificate accepts as
+#: conclusive. Gains ``L = P^-1 W`` and bounds with ``lambda_max / lambda_min`` lose
+#: log10(cond) of the 16 digits of double precision; above 1e8 fewer than 8 remain, below the
+#: solver's own accuracy, so the certified matrix is not the one the gains were computed from.
+MAX_CONDITION = 1e8
+#: the values of :attr:`Certificate.status`
+STATUSES = ("certified", "inconclusive", "violated")
+
+
 @dataclass
 class Certificate:
+    """Independent eigenvalue checks of every constraint of one LMI solution.
+
+    :attr:`ok`: every constraint has the required sign. :attr:`status` also asks whether the
+    signs mean something numerically: ``"violated"`` (a constraint fails), ``"inconclusive"``
+    (all signs right, but the smallest relative margin is below :data:`MIN_RELATIVE_MARGIN` or
+    a positive-definite constraint matrix has a condition number above :data:`MAX_CONDITION`),
+    else ``"certified"``.
+    """
+
     checks: list[ConstraintCheck] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         return all(c.ok for c in self.checks)
+
+    @property
+    def max_condition(self) -> float:
+        """Largest condition number ``lambda_max / lambda_min`` over the positive-definite
+        (``"pos"``) constraints, ``1 / relative`` of each (``inf`` if one is not positive
+        definite, 1 if there is none)."""
+        conds = [1.0 / c.relative if c.relative > 0 else np.inf
+                 for c in self.checks if c.kind == "pos"]
+        return float(max(conds)) if conds else 1.0
+
+    @property
+    def status(self) -> str:
+        """``"certified"``, ``"inconclusive"`` or ``"violated"`` (see the class docstring)."""
+        if not self.ok:
+            return "violated"
+        rel = self.min_relative_margin
+        if (not np.isnan(rel) and rel < MIN_RELATIVE_MARGIN) or self.max_condition > MAX_CONDITION:
+            return "inconclusive"
+        return "certified"
 
     @property
     def min_margin(self) -> float:

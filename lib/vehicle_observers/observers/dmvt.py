@@ -759,9 +759,12 @@ def plot_tracking(axs, t, X, U):
     return axs
 
 
-def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed=None):
+def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed=None,
+                         units=None):
     """Varying Jacobian entries ``xi`` (N, k) with the derived (``jts``) and printed bounds;
-    ``xi_printed`` (N, k) optionally overlays the printed formulas (NaN columns skipped)."""
+    ``xi_printed`` (N, k) optionally overlays the printed formulas (NaN columns skipped);
+    ``units`` (k,) the axis-label unit of each entry (none when omitted: the entries of one
+    Jacobian generally have different units)."""
     from vehicle_observers.core.arrays import decimate
 
     td, xd = decimate(t, xi, max_points=1500)
@@ -774,7 +777,7 @@ def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed
             ax.axhline(v, color="C0", ls=":", label="derived bounds" if k else None)
         for k, v in enumerate(printed_bounds[l]):
             ax.axhline(v, color="C3", ls="--", label="printed bounds" if k else None)
-        ax.set_ylabel(rf"$\xi_{l + 1}$ [1/s$^2$]")
+        ax.set_ylabel(rf"$\xi_{l + 1}$" + (f" [{units[l]}]" if units is not None else ""))
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     np.ravel(axs)[-1].set_xlabel("t [s]")
     return axs

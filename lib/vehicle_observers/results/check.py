@@ -6,7 +6,8 @@
 
 (``make check``.) Every notebook is run in full mode into ``build/check/figures``; then every
 committed metric in ``figures/<notebook>/metrics.json`` is compared with the regenerated one
-and every claim's verdict must be identical. A numeric metric may move by its tolerance:
+and every claim's verdict and kind (paper claim, benchmark target, diagnostic, baseline, data
+check) must be identical. A numeric metric may move by its tolerance:
 
 * one unit in the last stored digit (metrics are stored at ``digits`` significant digits, so a
   value sitting on a rounding boundary may flip by one unit), or
@@ -14,7 +15,8 @@ and every claim's verdict must be identical. A numeric metric may move by its to
   the platform beyond its stored precision; ``metrics.json`` records the reason, ``why``).
 
 A table of every drift is printed (metric, committed, regenerated, tolerance); the exit status
-is 1 on a verdict change, a missing/new metric or claim, or a drift beyond tolerance, else 0.
+is 1 on a verdict or kind change, a missing/new metric or claim, or a drift beyond tolerance,
+else 0.
 """
 
 from __future__ import annotations
@@ -84,6 +86,11 @@ def _tol_text(entry) -> str:
     return ", ".join(parts)
 
 
+def _kind(claim: dict) -> str:
+    """A claim's kind (documents written before kinds existed hold paper claims only)."""
+    return claim.get("kind", "paper")
+
+
 def compare_doc(old: dict, new: dict) -> list[Drift]:
     """Drifts between two metrics.json documents of one notebook (committed, regenerated)."""
     nb = old.get("notebook", "?")
@@ -109,6 +116,9 @@ def compare_doc(old: dict, new: dict) -> list[Drift]:
         elif ocd[k]["verdict"] != ncd[k]["verdict"]:
             out.append(Drift(nb, f"claim {k[0]}: {k[1]}", ocd[k]["verdict"], ncd[k]["verdict"],
                              "identical verdict", False))
+        if k in ocd and k in ncd and _kind(ocd[k]) != _kind(ncd[k]):
+            out.append(Drift(nb, f"claim kind {k[0]}: {k[1]}", _kind(ocd[k]), _kind(ncd[k]),
+                             "identical kind", False))
     return out
 
 
@@ -136,7 +146,8 @@ def compare_dirs(committed: Path, regenerated: Path, only=()) -> list[Drift]:
 def drift_table(drifts: list[Drift]) -> str:
     """Markdown table of the drifts (or a line saying there are none)."""
     if not drifts:
-        return "no drift: every metric identical at its stored precision, every verdict identical"
+        return ("no drift: every metric identical at its stored precision, every verdict and kind "
+                "identical")
     rows = ["| notebook | what | committed | regenerated | tolerance | within |",
             "|---|---|---|---|---|---|"]
     for d in drifts:
@@ -172,7 +183,7 @@ def main(argv=None) -> int:
     drifts = compare_dirs(committed, regenerated, only)
     print(drift_table(drifts))
     bad = [d for d in drifts if not d.ok]
-    print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts")
+    print(f"\n{len(drifts)} drift(s), {len(bad)} beyond tolerance or changed verdicts or kinds")
     return 1 if bad else 0
 
 

@@ -8,7 +8,8 @@ Notebooks run in name order with parameters ``seed``, ``quick`` and ``figures_di
 executed copies go to ``--build`` (ignored by git) for inspection. On a failing cell the
 run stops with the notebook name, the cell number and the error, and keeps the partial
 executed copy. After a full run, ``REPRODUCTION.md`` is rebuilt from the claims every
-notebook wrote into ``figures/<notebook>/metrics.json``. With ``--html DIR`` the executed
+notebook wrote into ``figures/<notebook>/metrics.json`` (paper claims first with their own
+tally; benchmark targets, diagnostics, baselines and data checks apart). With ``--html DIR`` the executed
 copies of the same run are also rendered to ``DIR/<notebook>.html`` (nbconvert, JupyterLab look,
 figures embedded, MathJax copied beside the pages: no network needed) for reading without a
 kernel (``make html``).
@@ -24,7 +25,7 @@ import time
 from pathlib import Path
 
 from vehicle_observers.data.logs import repo_root
-from vehicle_observers.results.rules import fmt
+from vehicle_observers.results.rules import KINDS, VERDICTS, Rule, RuleError, distinguishing_digits, fmt
 
 KERNEL = "vehicle-observers"
 
@@ -65,12 +66,98 @@ def write_html(executed: list[Path], out_dir: Path) -> list[Path]:
     return offline(executed, out_dir)
 
 
+#: one paragraph under the title of each kind's section of REPRODUCTION.md
+KIND_INTROS = {
+    "paper": "Claims printed in the papers (or shown by their figures): the reproduction proper. "
+             "Only these are counted as reproduced or not.",
+    "target": "Targets chosen in this repository for the benchmark of notebook 07 (accuracy on "
+              "the real log, margin over the open-loop model, an interval observer for every "
+              "car); no paper makes them.",
+    "diagnostic": "Checks of a model or a method that explain a result (the smoother against "
+                  "the filter, whiteness of the innovations as a test of the model); no paper "
+                  "claims them for these data, and a failed diagnostic is a finding about the "
+                  "model, not a claim that fails.",
+    "baseline": "Numbers of a baseline estimator (EKF, UKF) run beside a paper's observer on the "
+                "same data; the papers have no such baseline.",
+    "data": "Checks of a data set against the numbers of its provenance file.",
+}
+TABLE_HEADER = ["| paper | item | figure | metric | value | paper / target | verdict | rule | "
+                "threshold from | note |", "|---|---|---|---|---|---|---|---|---|---|"]
+
+
+def _kind(claim: dict) -> str:
+    return claim.get("kind", "paper")
+
+
+def tally(claims: list[dict], zeros: bool = True) -> str:
+    """``"a reproduced (b of which hold but prove little), c partly, d differs, e not
+    comparable"`` of ``claims`` (metrics.json claim dicts); verdicts with no claim are left
+    out unless ``zeros``."""
+    parts = []
+    for v in VERDICTS:
+        sel = [c for c in claims if c["verdict"] == v]
+        weak = sum(bool(c.get("proves_little")) for c in sel)
+        if sel or zeros:
+            parts.append(f"{len(sel)} {v}" + (f" ({weak} of which hold but prove little)"
+                                               if weak else ""))
+    return ", ".join(parts)
+
+
+def _count(n: int, kind: str) -> str:
+    """``"47 paper claims"``, ``"1 data check"``."""
+    title = KINDS[kind]
+    return f"{n} {title if n != 1 else title[:-1]}"
+
+
+def claim_value_text(claim: dict, metrics: dict) -> str:
+    """The claim's value with the rule's digits, more when it is close to one of the rule's
+    thresholds (:func:`rules.distinguishing_digits`: 1.002 against ``value <= 1`` is shown
+    as 1.002, not 1)."""
+    rd = claim.get("rule_def", {})
+    digits = rd.get("digits", 3)
+    try:
+        thr = Rule(**rd).thresholds(metrics) if rd.get("value") else []
+    except (RuleError, TypeError):
+        thr = []
+    return fmt(claim["value"], distinguishing_digits(claim["value"], thr, digits))
+
+
+def _source_text(claim: dict) -> str:
+    rd = claim.get("rule_def", {})
+    if rd.get("source"):
+        return rd["source"]
+    return "no threshold (nothing to compare with)" if rd.get("reproduced") is None else ""
+
+
+def _claim_row(nb: str, c: dict, metrics: dict) -> str:
+    fig = c["figure"]
+    link = f"[{fig}](figures/{nb}/{fig}.png)" if fig else ""
+    verdict = f"**{c['verdict']}**"
+    if c.get("proves_little"):
+        verdict += " (holds but proves little)"
+    cells = [c["paper"], c["item"], link, c["metric"], claim_value_text(c, metrics), c["target"],
+             verdict, c.get("rule", ""), _source_text(c), c.get("note", "")]
+    return "| " + " | ".join(str(x).replace("|", "/").replace("\n", " ") for x in cells) + " |"
+
+
 def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -> Path:
-    """Build REPRODUCTION.md from every ``figures/*/metrics.json`` (claims + key metrics)."""
+    """Build REPRODUCTION.md from every ``figures/*/metrics.json``: the paper claims first,
+    with their own tally, then the benchmark targets, diagnostics, baselines and data checks
+    in separate tables with their own counts (never added to the paper claims), then every
+    notebook's metrics."""
     root = root or repo_root()
-    docs = []
-    for mj in sorted(figures_dir.glob("*/metrics.json")):
-        docs.append(json.loads(mj.read_text()))
+    docs = [json.loads(mj.read_text()) for mj in sorted(figures_dir.glob("*/metrics.json"))]
+    docs = [d for d in docs if "notebook" in d]
+    values = {d["notebook"]: {k: v["value"] for k, v in d["metrics"].items()} for d in docs}
+    by_kind = {k: [(d["notebook"], c) for d in docs for c in d["claims"] if _kind(c) == k]
+               for k in KINDS}
+    paper = [c for _, c in by_kind["paper"]]
+    apart = [f"{_count(len(by_kind[k]), k)} ({tally([c for _, c in by_kind[k]], zeros=False)})"
+             for k in KINDS if k != "paper" and by_kind[k]]
+    summary = (f"Summary: {_count(len(paper), 'paper')}: {tally(paper)}." if paper
+               else "Summary: no paper claims yet.")
+    if apart:
+        summary += " Counted apart, not paper claims: " + "; ".join(apart) + "."
     lines = ["# Reproduction status", "",
              "Generated by `make figures` from the claims each notebook records "
              "(`figures/<notebook>/metrics.json`); do not edit by hand.", "",
@@ -79,38 +166,37 @@ def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -
              "reproduced-condition holds, else **partly** if the partly-condition holds, else "
              "**differs**; **not comparable** where the paper prints no number or behaviour to "
              "test. \"Holds but proves little\" marks a check that passes without telling much "
-             "(its informative-condition fails).", ""]
-    counts: dict[str, int] = {}
+             "(its informative-condition fails). \"Threshold from\" says whether a rule's "
+             "numbers are the paper's (\"paper:\") or chosen in this repository (\"chosen "
+             "here:\", with the reason). A value close to a threshold is shown with enough "
+             "digits to tell on which side it lies.", "",
+             "Only the claims printed in the papers are counted as the reproduction. Benchmark "
+             "targets, diagnostics, baselines and data checks are tabled and counted apart.", "",
+             summary, ""]
+    for kind, title in KINDS.items():
+        rows = by_kind[kind]
+        if not rows:
+            continue
+        lines += [f"## {title[0].upper() + title[1:]}", "", KIND_INTROS[kind], "",
+                  f"{_count(len(rows), kind)}: {tally([c for _, c in rows], zeros=kind == 'paper')}.",
+                  ""]
+        for nb in dict.fromkeys(nb for nb, _ in rows):
+            lines += [f"### {title[0].upper() + title[1:]}: {nb}", "", *TABLE_HEADER]
+            lines += [_claim_row(nb, c, values[nb]) for n, c in rows if n == nb]
+            lines.append("")
     for d in docs:
         nb = d["notebook"]
         mode = " (quick mode)" if d.get("quick") else ""
-        lines += [f"## {nb}{mode}", "", f"Notebook: `notebooks/{nb}.ipynb`, seed {d.get('seed')}.",
-                  ""]
-        if d["claims"]:
-            lines += ["| paper | item | figure | metric | value | paper / target | verdict | rule | note |",
-                      "|---|---|---|---|---|---|---|---|---|"]
-            for c in d["claims"]:
-                counts[c["verdict"]] = counts.get(c["verdict"], 0) + 1
-                fig = c["figure"]
-                link = f"[{fig}](figures/{nb}/{fig}.png)" if fig else ""
-                digits = c.get("rule_def", {}).get("digits", 3)
-                verdict = f"**{c['verdict']}**"
-                if c.get("proves_little"):
-                    verdict += " (holds but proves little)"
-                cells = [c["paper"], c["item"], link, c["metric"], fmt(c["value"], digits),
-                         c["target"], verdict, c.get("rule", ""), c.get("note", "")]
-                lines.append("| " + " | ".join(str(x).replace("|", "/").replace("\n", " ")
-                                               for x in cells) + " |")
-            lines.append("")
-        key = list(d["metrics"].items())
-        if key:
+        counts = ", ".join(_count(n, k) for k in KINDS
+                           if (n := sum(_kind(c) == k for c in d["claims"])))
+        lines += [f"## {nb}{mode}", "", f"Notebook: `notebooks/{nb}.ipynb`, seed {d.get('seed')}; "
+                  f"claims: {counts or 'none'}.", ""]
+        if d["metrics"]:
             lines += ["<details><summary>all metrics</summary>", "",
                       "| metric | value | unit |", "|---|---|---|"]
-            for k, v in key:
+            for k, v in d["metrics"].items():
                 lines.append(f"| {k} | {fmt(v['value'], 4)} | {v.get('unit', '')} |")
             lines += ["", "</details>", ""]
-    summary = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
-    lines.insert(6, f"Summary: {summary or 'no claims yet'}.\n")
     out.write_text("\n".join(lines) + "\n")
     return out
 

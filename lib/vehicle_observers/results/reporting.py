@@ -6,7 +6,8 @@ Usage in a notebook::
     rep.savefig(fig, "fig1_real_log")                 # shown inline, saved as PNG (+ PDF)
     rep.metric("rmse_vy_ts", 0.28, "m/s")             # stored at 4 significant digits
     rep.claim("Yacine 2015", "Fig. 1", "fig1_real_log", "yaw-rate fit",
-              Rule("fit_r", reproduced="value >= 0.95", paper="model fits the measurements"))
+              Rule("fit_r", reproduced="value >= 0.95", paper="model fits the measurements",
+                   source="chosen here: the paper prints no number"))      # kind="paper"
     rep.timing("observer_us_per_step", 0.8, "us")     # wall clock: build/timings/, never committed
     rep.record(metrics={"rmse_r": (0.01, "rad/s", "note")},    # many at once, in order
                claims=[dict(paper=..., item=..., figure=..., metric=..., rule=Rule(...))],
@@ -14,7 +15,10 @@ Usage in a notebook::
     rep.write()                                       # metrics.json
 
 The verdict of a claim is computed by its :class:`~vehicle_observers.results.rules.Rule` from
-the metrics recorded before it, never written by hand. ``metrics.json`` holds the metrics (with
+the metrics recorded before it, never written by hand. Its ``kind`` (``rules.KINDS``) says
+whether it is a claim printed in a paper (``"paper"``, the default) or a check made beside the
+papers (``"target"``, ``"diagnostic"``, ``"baseline"``, ``"data"``); REPRODUCTION.md counts
+the kinds apart. ``metrics.json`` holds the metrics (with
 their precision and, where a value depends on the solver or the platform beyond that precision,
 its tolerance and the reason), the claims with their rules and verdicts (read by the pipeline
 to build REPRODUCTION.md) and the list of files written. Files are written deterministically
@@ -38,9 +42,17 @@ import numpy as np
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results import plotting  # noqa: F401  (applies the one figure style)
-from vehicle_observers.results.rules import VERDICTS, Rule, fmt, round_sig
+from vehicle_observers.results.rules import (
+    KINDS,
+    VERDICTS,
+    Rule,
+    RuleError,
+    distinguishing_digits,
+    fmt,
+    round_sig,
+)
 
-__all__ = ["Report", "Rule", "VERDICTS", "load_metrics", "interactive_dir", "jsonable"]
+__all__ = ["Report", "Rule", "VERDICTS", "KINDS", "load_metrics", "interactive_dir", "jsonable"]
 
 
 def interactive_dir() -> Path:
@@ -80,6 +92,7 @@ class Claim:
     rule: str = ""
     proves_little: bool = False
     rule_def: dict = field(default_factory=dict)
+    kind: str = "paper"
 
 
 def _in_kernel() -> bool:
@@ -169,17 +182,30 @@ class Report:
 
     # ------------------------------------------------------------------ claims -----------
     def claim(self, paper: str, item: str, figure: str, metric: str, rule: Rule,
-              note: str = ""):
-        """Record one paper claim; its verdict is computed by ``rule`` (a
+              note: str = "", kind: str = "paper"):
+        """Record one claim; its verdict is computed by ``rule`` (a
         :class:`~vehicle_observers.results.rules.Rule`) from the metrics recorded so far. There
-        is no way to pass a verdict: it is never written by hand."""
+        is no way to pass a verdict: it is never written by hand. ``kind``: ``"paper"`` (a
+        claim printed in a paper), ``"target"``, ``"diagnostic"``, ``"baseline"`` or ``"data"``
+        (checks made beside the papers; see ``rules.KINDS``). The value is stored at 4
+        significant digits, more when needed to tell it from a threshold of the rule."""
         if not isinstance(rule, Rule):
             raise TypeError(f"claim {paper} {item}: rule must be a Rule (the verdict is computed "
                             f"from it), got {type(rule).__name__}")
-        j = rule.judge(self.values())
-        self.claims.append(Claim(paper, item, figure, metric, round_sig(jsonable(j.value), 4),
+        if kind not in KINDS:
+            raise ObserverArgumentError(f"claim {paper} {item}: kind must be one of "
+                                        f"{', '.join(KINDS)}, got {kind!r}")
+        values = self.values()
+        j = rule.judge(values)
+        value = jsonable(j.value)
+        try:
+            digits = distinguishing_digits(value, rule.thresholds(values), 4)
+        except RuleError:  # pragma: no cover - judge() evaluated the same expressions
+            digits = 4
+        self.claims.append(Claim(paper, item, figure, metric, round_sig(value, digits),
                                  rule.paper, j.verdict, note, rule.text(), j.proves_little,
-                                 {k: v for k, v in asdict(rule).items() if v is not None}))
+                                 {k: v for k, v in asdict(rule).items() if v is not None},
+                                 kind))
         return j
 
     def record(self, *, metrics: dict | None = None, claims=(), timings: dict | None = None):

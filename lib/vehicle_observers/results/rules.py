@@ -4,13 +4,23 @@ A claim of a paper is judged by a :class:`Rule`: an expression over the run's me
 ``value``; conditions on it (and on other metrics) give the verdict::
 
     Rule("bound34_max_ratio", reproduced="value <= 1", paper="||e|| below bound (34) at every sample",
-         informative="value >= 0.1", digits=3)
+         informative="value >= 0.1", digits=3,
+         source="paper: (34) bounds ||e(t)|| at every t; chosen here: informative above 0.1")
 
 * ``reproduced`` holds -> **reproduced**; else ``partly`` holds -> **partly**; else **differs**.
 * ``Rule.no_number(value, paper)`` -> **not comparable** (the paper prints no number or
   behaviour to compare with; the value is still reported).
 * ``informative`` (optional) fails -> the verdict is qualified "holds but proves little"
   (e.g. a bound three orders of magnitude above the error).
+* ``source``: where the thresholds come from, ``"paper: <quote or equation>"`` or
+  ``"chosen here: <reason>"`` (or both, joined by ``"; "``), shown in REPRODUCTION.md.
+
+Each claim also has a **kind** (:data:`KINDS`): a claim printed in a paper, or one of the
+checks made beside the papers (benchmark targets, diagnostics, baselines, data checks), which
+REPRODUCTION.md tables and counts apart.
+
+When the compared value is close to a threshold (a ratio of 1.002 against ``value <= 1``),
+:func:`distinguishing_digits` gives enough digits to show on which side it lies.
 
 Expressions are Python syntax restricted to metric names, numbers, arithmetic, comparisons,
 ``and``/``or``/``not``, indexing and ``abs``/``min``/``max``/``len``/``all``/``any``; a metric whose
@@ -27,6 +37,15 @@ from dataclasses import dataclass
 import numpy as np
 
 VERDICTS = ("reproduced", "partly", "differs", "not comparable")
+#: kinds of claim -> plural title in REPRODUCTION.md. ``paper``: a claim printed in a paper (the
+#: reproduction proper); the others are checks made here, counted apart: ``target`` a benchmark
+#: target chosen here, ``diagnostic`` a check of a model or method (smoother against filter,
+#: innovation whiteness, a model-validity test), ``baseline`` a baseline estimator's number,
+#: ``data`` a check of a data set against its provenance.
+KINDS = {"paper": "paper claims", "target": "benchmark targets", "diagnostic": "diagnostics",
+         "baseline": "baselines", "data": "data checks"}
+#: how a rule's ``source`` starts: the threshold is the paper's, or chosen in this repository
+SOURCE_PREFIXES = ("paper:", "chosen here:")
 _FUNCS = {"abs": abs, "min": min, "max": max, "len": len, "all": all, "any": any, "metric": None}
 _NODES = (ast.Expression, ast.BoolOp, ast.BinOp, ast.UnaryOp, ast.Compare, ast.Name, ast.Load,
           ast.Constant, ast.Subscript, ast.Call, ast.Tuple, ast.List, ast.Slice, ast.And, ast.Or,
@@ -85,7 +104,13 @@ class Rule:
     reproduced, partly : conditions (expressions using ``value`` and metric names).
     paper : the paper's number or behaviour, as text (shown as the target).
     informative : condition; when it fails the verdict is marked "holds but proves little".
-    digits : significant digits of the value in REPRODUCTION.md.
+    digits : significant digits of the value in REPRODUCTION.md (more when the value is close
+        to a threshold, :func:`distinguishing_digits`).
+    source : where the thresholds come from: ``"paper: <quote or equation>"`` or
+        ``"chosen here: <reason>"`` (both parts, joined by ``"; "``, when the paper gives the
+        behaviour and the number is chosen here). Every rule of the notebooks and the
+        reproductions has one (a repository test checks it); a ``no_number`` rule has no
+        threshold and needs none.
     """
 
     value: str
@@ -94,16 +119,45 @@ class Rule:
     partly: str | None = None
     informative: str | None = None
     digits: int = 3
+    source: str = ""
 
     def __post_init__(self):
         for e in (self.value, self.reproduced, self.partly, self.informative):
             if e is not None:
                 _check_syntax(e)
+        if not isinstance(self.source, str) or (
+                self.source and not self.source.startswith(SOURCE_PREFIXES)):
+            raise RuleError(f"rule {self.value!r}: source must start with "
+                            f"{' or '.join(repr(p) for p in SOURCE_PREFIXES)}, got {self.source!r}")
 
     @classmethod
-    def no_number(cls, value: str, paper: str, digits: int = 3) -> Rule:
+    def no_number(cls, value: str, paper: str, digits: int = 3, source: str = "") -> Rule:
         """The paper gives no number or behaviour to test: verdict "not comparable"."""
-        return cls(value=value, reproduced=None, paper=paper, digits=digits)
+        return cls(value=value, reproduced=None, paper=paper, digits=digits, source=source)
+
+    def thresholds(self, metrics: dict) -> list[float]:
+        """The numbers ``value`` is compared with in the conditions: in every comparison with
+        ``value`` on one side, the other side evaluated over ``metrics`` (a constant, or an
+        expression of other metrics). Comparisons that cannot be evaluated are skipped."""
+        v = evaluate(self.value, metrics)
+        out = []
+        for cond in (self.reproduced, self.partly, self.informative):
+            if cond is None:
+                continue
+            for node in ast.walk(_check_syntax(cond)):
+                if not isinstance(node, ast.Compare):
+                    continue
+                sides = [node.left, *node.comparators]
+                for a, b in zip(sides, sides[1:]):
+                    for this, other in ((a, b), (b, a)):
+                        if isinstance(this, ast.Name) and this.id == "value":
+                            try:
+                                t = evaluate(ast.unparse(other), {**metrics, "value": v})
+                            except RuleError:
+                                continue
+                            if isinstance(t, (int, float)) and not isinstance(t, bool):
+                                out.append(float(t))
+        return out
 
     def text(self) -> str:
         """The rule as written in REPRODUCTION.md."""
@@ -151,6 +205,23 @@ def _true(x, expr) -> bool:
     if isinstance(x, (bool, np.bool_)):
         return bool(x)
     raise RuleError(f"rule condition {expr!r} must give True/False, got {x!r}")
+
+
+def distinguishing_digits(value, thresholds, digits: int = 3, max_digits: int = 12) -> int:
+    """Significant digits (at least ``digits``, at most ``max_digits``) with which ``value``,
+    rounded, lies on the same side of every threshold as ``value`` itself, and differs from a
+    threshold it differs from: 1.002 against 1 needs 4 digits ("1.002", not "1"). Values
+    that are not finite floats keep ``digits``."""
+    if isinstance(value, bool) or not isinstance(value, float) or not math.isfinite(value):
+        return digits
+    ts = [float(t) for t in thresholds if math.isfinite(float(t))]
+    d = digits
+    while d < max_digits:
+        r = float(f"{value:.{d}g}")
+        if all(np.sign(r - t) == np.sign(value - t) for t in ts):
+            break
+        d += 1
+    return d
 
 
 def round_sig(x, digits: int):

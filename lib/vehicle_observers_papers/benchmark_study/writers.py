@@ -90,7 +90,8 @@ def write_outputs(res: dict, out_dir: Path, topics=None) -> list[Path]:
           "see the docstring of `vehicle_observers_papers.benchmark_study` for the protocol.", "",
           markdown_table(rows, summary_columns()), ""]
     if "revs" in res["logs"]:
-        md += ["Real-log references (v_y RMSE over the whole run, PROVENANCE.md): " + ", ".join(
+        md += ["Real-log references (v_y RMSE over the whole run; runs.REVS_REFERENCES says "
+               "which are recomputed here): " + ", ".join(
             f"{k} {v}" for k, v in REVS_REFERENCES.items()) + " m/s.", ""]
         revs_ests = {o: e for (d, o), e in res["estimates"].items() if d == "revs"}
         loss = revs_losses(res["logs"]["revs"], revs_ests)

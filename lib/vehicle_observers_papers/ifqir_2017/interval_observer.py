@@ -130,6 +130,8 @@ def design_study(seed: int = 0, quick: bool = False, veh: ub.UncertainBicycle | 
         "gamma_single_mode": (des1.gamma, "", ""),
         "lmi_margin": (des.lmi_margin, "", "min eigenvalue margin of (17)-(19), absolute"),
         "lmi_relative_margin": (des.lmi_relative_margin, "", ""),
+        "lmi_status": (des.solution.certificate.status, "",
+                       "LMI certificate: certified / inconclusive / violated"),
         "metzler_margin_min": (des.min_metzler_margin, "1/s", ""),
         "metzler_margins": (des.metzler_margins, "1/s", ""),
         "dwell_time_bound": (dw["dwell_time_s"], "s", ""),
@@ -207,6 +209,8 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
         metrics.update({
             f"printed_gamma_per_mode{sfx}": (c.gammas, "", "(19) with printed P, W = P L"),
             f"printed_lmi_margin{sfx}": (c.lmi_margin, "", "min eigenvalue margin (17)-(19)"),
+            f"printed_lmi_status{sfx}": (c.solution.certificate.status, "",
+                                         "LMI certificate: certified / inconclusive / violated"),
             f"printed_metzler_margin_min{sfx}": (c.metzler_margins.min(), "1/s", ""),
             f"printed_min_epsilon{sfx}": (c.min_epsilon, "1/s", "per mode")})
         lines.append(f"1/v_x upper bound at vertices 1-2: {pol}: gamma_i {np.round(c.gammas, 4)},"

@@ -199,9 +199,10 @@ def lmi_study(alphas=(1e-3, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0), configs=None, ts=Non
     One row per (alpha, configuration): ``feasible``; if feasible ``c``, ``P_condition``
     (of P in original coordinates), ``xi_min_relative`` (worst relative eigenvalue margin of
     (33) rebuilt in original coordinates: below ~1e-10 the certificate is at round-off
-    level), ``max_pole_modulus`` of the vertex observers and ``pole_dt`` = that times
-    ``Ts`` (RK4 at ``Ts`` is stable on the real axis for ``|lambda| Ts < 2.78``); if
-    infeasible the LMI named by the diagnosis and its violation.
+    level), ``status`` of that certificate (``Certificate.status``: "inconclusive" below a
+    relative margin of 1e-9 or above cond(P) = 1e8), ``max_pole_modulus`` of the vertex
+    observers and ``pole_dt`` = that times ``Ts`` (RK4 at ``Ts`` is stable on the real axis for
+    ``|lambda| Ts < 2.78``); if infeasible the LMI named by the diagnosis and its violation.
     """
     configs = LMI_CONFIGS if configs is None else configs
     ts = ts or yacine2015.ts_model()
@@ -216,6 +217,7 @@ def lmi_study(alphas=(1e-3, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0), configs=None, ts=Non
         mg = d.margins()
         rows.append({**row, "feasible": True, "c": d.c, "P_condition": mg["P_condition"],
                      "xi_min_relative": mg["xi_original_min_relative"],
+                     "status": d.certificate_original.status,
                      "max_pole_modulus": mg["max_pole_modulus"],
                      "pole_dt": mg["max_pole_modulus"] * yacine2015.Ts})
     return rows
@@ -225,8 +227,8 @@ def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
                 band: float = 1e-3, config=None) -> list[dict]:
     """The observer for several decay parameters ``alpha`` (design ``config``, default
     :data:`DISK_ONLY`) on ``log`` started at ``x0``: time for ``|vy error|`` to enter ``band``
-    [m/s] and stay there >= 1 s, and the metrics. Infeasible alphas give a row with the
-    error's LMI and violation."""
+    [m/s] and stay there >= 1 s, the certificate ``status`` (as in :func:`lmi_study`) and the
+    metrics. Infeasible alphas give a row with the error's LMI and violation."""
     config = DISK_ONLY if config is None else config
     rows = []
     for a in alphas:
@@ -238,6 +240,7 @@ def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
             continue
         run = to.run_observer(log, d, x0=np.asarray(x0, dtype=float))
         rows.append({"alpha": a, "feasible": True, "c": d.c,
+                     "status": d.certificate_original.status,
                      "T_settle_vy": T1.convergence_time(log.t, run.vy - log.vy, band,
                                                         mode="first"),
                      **estimation_metrics(log, run)})
@@ -248,14 +251,16 @@ def bound_study(base: DriveLog, alphas=(1e-3, 1.0, 2.0), t1: float = 40.0,
                 config=None) -> list[dict]:
     """Bound (34) for several ``alpha`` (design ``config``, default :data:`DISK_ONLY`) on the
     TS-exact noise-free replay ``[12 s, t1]`` of ``base`` (:func:`theory_check`): the largest
-    ratio ``||e|| / bound``, the bound at the end of the horizon and ``t_informative``; the
-    full :func:`theory_check` result under ``"check"`` (for :func:`fig_bound`)."""
+    ratio ``||e|| / bound``, the bound at the end of the horizon, ``t_informative`` and the
+    certificate ``status`` of the design (as in :func:`lmi_study`); the full
+    :func:`theory_check` result under ``"check"`` (for :func:`fig_bound`)."""
     config = DISK_ONLY if config is None else config
     rows = []
     for a in alphas:
         d = to.design_theorem1(yacine2015.ts_model(), alpha=a, **config)
         tc = theory_check(base, d, t1=t1)
         rows.append({"alpha": a, "c": d.c, "P_condition": d.alpha2 / d.alpha1,
+                     "status": d.certificate_original.status,
                      **{k: tc[k] for k in ("T", "horizon", "max_ratio", "max_ratio_iss", "e0",
                                            "bound_end", "err_after_5s", "t_informative",
                                            "truth_inside_sector")}, "check": tc})
