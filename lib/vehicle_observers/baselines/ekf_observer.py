@@ -78,8 +78,8 @@ class EKFObserver(FixedStepObserver):
         for arg, M, k in (("Q", Q, n), ("R", R, p), ("P0", P0, n)):
             M = np.asarray(M, dtype=float)
             if M.shape != (k, k) or not np.all(np.isfinite(M)):
-                raise ObserverArgumentError(f"{name}: {arg} must be a finite ({k}, {k}) matrix, "
-                                            f"got shape {M.shape}")
+                raise ObserverArgumentError(f"{name}: {arg} must be ({k}, {k}) and finite, got "
+                                            f"shape {M.shape}")
             mats[arg] = M
         self.design = NoiseDesign(**mats)
         self.f, self.h, self.jac, self.hjac, self.name = f, h, jac, hjac, name

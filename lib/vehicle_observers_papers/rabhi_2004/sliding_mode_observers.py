@@ -26,7 +26,7 @@ from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
 
 from vehicle_observers_papers.rabhi_2004 import constants as R
-from vehicle_observers_papers.rabhi_2004 import experiments as E
+from vehicle_observers_papers.rabhi_2004 import experiments as EX
 
 PAPER = "Rabhi 2004"
 #: force-observer switching modes compared in Part A (order of the metrics)
@@ -75,7 +75,7 @@ def knob_run(man, Xs, phi_scale: float = 1.0, noise_scale: float = 1.0, seed: in
     rows = []
     for lab, g in ((f"sat, phi x{phi_scale:g}", _scaled_phi(phi_scale)),
                    ("sign", R.force_gains.with_(mode="sign"))):
-        o = E.part_a_run(man, Xs, g, noise=noise, seed=seed)
+        o = EX.part_a_run(man, Xs, g, noise=noise, seed=seed)
         rows.append({"observer": lab, "max RMSE [% of peak]": _pct_max(o),
                      "max chattering [N]": max(o[f"chatter_{n}"] for n in R.FORCE_NAMES)})
     return show_table(rows, title=f"noise x{noise_scale:g}")
@@ -138,7 +138,7 @@ def _pct_max(o: dict) -> float:
 def force_modes(man, Xs, modes=MODES) -> dict:
     """Observer (10) in each switching mode (``R.force_gains``, clean measurements):
     ``{mode: part_a_run dict}`` (Figs. 4-6 analogues use ``'sat'``)."""
-    return {mode: E.part_a_run(man, Xs, R.force_gains.with_(mode=mode)) for mode in modes}
+    return {mode: EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode)) for mode in modes}
 
 
 def force_metrics(A: dict) -> dict:
@@ -173,7 +173,7 @@ def adaptation_study(man, Xs, modes=("sign", "sat"), adapt=ADAPT) -> dict:
     """Observer (10) with the adaptation law (20)-(22) on the F0/sigma entries only
     (``partial``, the default gains), on all 8 entries of theta (``full``, the printed law)
     and without adaptation (``none``), in each switching mode: ``{(mode, label): run}``."""
-    return {(mode, lab): E.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=P))
+    return {(mode, lab): EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=P))
             for mode in modes for lab, P in adapt}
 
 
@@ -193,7 +193,7 @@ def flipped_adaptation(man, Xs, mode: str = "sat") -> dict:
     estimate reached; ``{name: (value, unit, note)}``."""
     out = {}
     for lab, sgn in (("stabilising", 1.0), ("flipped", -1.0)):
-        o = E.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=tuple(sgn * np.asarray(R.force_gains.P))))
+        o = EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=tuple(sgn * np.asarray(R.force_gains.P))))
         out[f"ex_adapt_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, {lab} sign")
         out[f"ex_adapt_{lab}_theta_F0_max"] = (float(np.max(np.abs(o["res"].theta[:, 1::2]))), "N/m",
                                               "max |F0/sigma| estimate")
@@ -205,7 +205,7 @@ def mu_step_study(T: float, mu_after: float = 0.5, modes=("sign", "sat"), adapt=
     (:func:`.papers.rabhi2004.part_a_truth_mu_step`), the observer model unchanged (nominal
     slip stiffnesses of ``mu = 1``): ``(man, Xs, runs)`` with ``runs`` as
     :func:`adaptation_study`."""
-    man, Xs = E.part_a_truth_mu_step(T, mu_after)
+    man, Xs = EX.part_a_truth_mu_step(T, mu_after)
     return man, Xs, adaptation_study(man, Xs, modes, adapt)
 
 
@@ -228,7 +228,7 @@ def tradeoff_study(man, Xs, seed: int = 0, scales=(0.1, 1, 10, 100)) -> list[dic
     rows = []
     for noise in (None, R.sensor_noise):
         for label, g in cases:
-            o = E.part_a_run(man, Xs, g, noise=noise, seed=seed)
+            o = EX.part_a_run(man, Xs, g, noise=noise, seed=seed)
             rmse = np.array([o[f"rmse_{nm}"] for nm in R.FORCE_NAMES])
             chat = np.array([o[f"chatter_{nm}"] for nm in R.FORCE_NAMES])
             rows.append({"meas": "noisy" if noise else "clean", "mode": label,
@@ -270,8 +270,8 @@ def robustness_study(man, Xs, cases=ROBUST_CASES_A) -> list[dict]:
     ``noadapt`` (4,) force RMSE [% of peak]."""
     rows = []
     for label, key, e in cases:
-        o1 = E.part_a_run(man, Xs, R.force_gains, errors=e)
-        o0 = E.part_a_run(man, Xs, R.force_gains.with_(P=(0.0,) * 8), errors=e)
+        o1 = EX.part_a_run(man, Xs, R.force_gains, errors=e)
+        o0 = EX.part_a_run(man, Xs, R.force_gains.with_(P=(0.0,) * 8), errors=e)
         rows.append({"label": label, "key": key, "errors": e,
                      "adaptive": [o1[f"rmse_pct_{n}"] for n in R.FORCE_NAMES],
                      "noadapt": [o0[f"rmse_pct_{n}"] for n in R.FORCE_NAMES]})
@@ -298,7 +298,7 @@ def robustness_table(rows: list[dict]) -> str:
 
 # ----------------------------------------------------------------- Part A: EKF baseline ---
 def ekf_study(man, Xs, smo_sat: dict, seed: int = 0, dec: int = EKF_DEC) -> dict:
-    """Random-walk-force EKF (:func:`.baselines.sliding_mode_ekf.part_a_ekf_run` on the block means of
+    """Random-walk-force EKF (:func:`.experiments.part_a_ekf_run` on the block means of
     ``dec`` samples, ``R / dec``) against the SMO (sat) on the same truth and measurements.
 
     Returns ``{"E": {clean, noisy}`` (noise rule 1, ``Q_F = F_max^2 / T_RISE``), ``"E2"``
@@ -311,13 +311,13 @@ def ekf_study(man, Xs, smo_sat: dict, seed: int = 0, dec: int = EKF_DEC) -> dict
     kw = dict(decimate=dec, seed=seed, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
     t_rule2 = T_RISE**2 / (dec * dt)   # Q_F = F_max^2 / t_rule2 = (F_max / T_RISE)^2 T_s
     cases = (("clean", None), ("noisy", R.sensor_noise))
-    E = {lab: E.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=T_RISE, **kw)
+    E = {lab: EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=T_RISE, **kw)
          for lab, nz in cases}
-    E2 = {lab: E.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=t_rule2, **kw)
+    E2 = {lab: EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=t_rule2, **kw)
           for lab, nz in cases}
     S = {"clean": smo_sat,
-         "noisy": E.part_a_run(man, Xs, R.force_gains.with_(mode="sat"), noise=R.sensor_noise, seed=seed),
-         "noisy_phi10": E.part_a_run(man, Xs, _scaled_phi(10), noise=R.sensor_noise, seed=seed)}
+         "noisy": EX.part_a_run(man, Xs, R.force_gains.with_(mode="sat"), noise=R.sensor_noise, seed=seed),
+         "noisy_phi10": EX.part_a_run(man, Xs, _scaled_phi(10), noise=R.sensor_noise, seed=seed)}
     return {"E": E, "E2": E2, "S": S, "dec": int(dec), "dt": dt, "q_ratio": T_RISE / t_rule2}
 
 
@@ -394,7 +394,7 @@ def ekf_robustness(man, Xs, ek: dict, seed: int = 0, cases=ROBUST_CASES_A,
         if set(e) <= TYRE_PARAMS:
             o = ek["E"]["clean"]
         else:
-            o = E.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, errors=e, decimate=dec, seed=seed,
+            o = EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, errors=e, decimate=dec, seed=seed,
                                    t_rise=T_RISE, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
         key = label.replace(" ", "_").replace("%", "pct").replace("+", "p").replace("-", "m")
         rows.append({"label": label, "metric": f"A_ekf_robust_{key}_rmse_pct_max", "value": _pct_max(o),
@@ -464,7 +464,7 @@ def model_metrics(psd: dict, p=R.fullcar) -> dict:
 
 def road_runs(T: float, seed: int = 0, roads=ROADS, modes=("sign", "sat")) -> dict:
     """Road observer on each road and mode (``R.road_gains``): ``{(road, mode): part_b_run}``."""
-    return {(nm, mode): E.part_b_run(nm, T, R.road_gains.with_(mode=mode), seed=seed)
+    return {(nm, mode): EX.part_b_run(nm, T, R.road_gains.with_(mode=mode), seed=seed)
             for nm in roads for mode in modes}
 
 
@@ -491,7 +491,7 @@ PAPER_OUT_CASES = (("paper", None), ("defl", WHEEL_FR))
 def paper_output_runs(T: float, seed: int = 0, roads=("D", "belgian"), cases=PAPER_OUT_CASES) -> dict:
     """Observer on the paper's outputs (29) (``paper``) and with one suspension-deflection
     sensor on the front-right wheel (``defl``): ``{(case, road): part_b_paper_run}``."""
-    return {(c, nm): E.part_b_paper_run(nm, T, deflection_wheel=w, seed=seed)
+    return {(c, nm): EX.part_b_paper_run(nm, T, deflection_wheel=w, seed=seed)
             for c, w in cases for nm in roads}
 
 
@@ -545,7 +545,7 @@ def road_sweep(T: float, seed: int = 0, road_name: str = "D", scales=(1, 10, 100
               for lab, g in [("sign", g0.with_(mode="sign")), ("sat", g0),
                              ("sat_phi2x10", g0.with_(phi2=10 * g0.phi2))]]
     return [{"label": label, "metric": f"B_{road_name}_{key}_U_rmse_pct_mean", "unit": "%", "note": "",
-             "value": E.part_b_run(road_name, T, g, seed=seed, noise_z=nz)["U_rmse_pct_mean"]}
+             "value": EX.part_b_run(road_name, T, g, seed=seed, noise_z=nz)["U_rmse_pct_mean"]}
             for label, key, g, nz in cases]
 
 
@@ -555,7 +555,7 @@ def road_robustness(T: float, seed: int = 0, road_name: str = "D", cases=ROBUST_
     ``note``."""
     return [{"label": label, "metric": f"B_robust_{label.split()[0]}_U_rmse_pct_mean",
              "unit": "% of profile RMS", "note": label,
-             "value": E.part_b_run(road_name, T, R.road_gains, errors=e, seed=seed)["U_rmse_pct_mean"]}
+             "value": EX.part_b_run(road_name, T, R.road_gains, errors=e, seed=seed)["U_rmse_pct_mean"]}
             for label, e in cases]
 
 
