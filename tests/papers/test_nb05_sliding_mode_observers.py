@@ -192,7 +192,7 @@ def test_ekf_study_and_metrics(truth, A, ek):
     # per second of driving = per step x steps per second, the rates read off the time grids
     steps_ekf, steps_smo = 1 / (res.t[1] - res.t[0]), 1 / (man.t[1] - man.t[0])
     assert tm["A_ekf_smo_cost_ratio_per_second"][0] == pytest.approx(
-        E["us_per_step"] * steps_ekf / (us * steps_smo), rel=1e-9)
+        E["res"].us_per_step * steps_ekf / (us * steps_smo), rel=1e-9)
     assert tm["A_ekf_us_per_step"][2].endswith("200 Hz") and "2 kHz" in tm["A_smo_us_per_step"][2]
     # wall-clock numbers never enter the metrics
     assert not any("us_per" in k or "cost" in k for k in m)
@@ -222,7 +222,7 @@ def test_ekf_rates_follow_dec(truth, A):
     assert ek5["q_ratio"] == pytest.approx(5 * R.dt_force / 0.5, rel=1e-12)
     tm = rs.ekf_timings(ek5, 1.0)
     assert tm["A_ekf_smo_cost_ratio_per_second"][0] == pytest.approx(
-        ek5["E"]["clean"]["us_per_step"] / 5, rel=1e-9)
+        ek5["E"]["clean"]["res"].us_per_step / 5, rel=1e-9)
     assert tm["A_ekf_us_per_step"][2].endswith("400 Hz")
     assert "400 Hz on block means of 5 samples (R / 5)" in rs.ekf_claim(ek5)["note"]
 

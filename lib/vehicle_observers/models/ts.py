@@ -17,6 +17,12 @@ The exactness holds only inside the bounds: :meth:`SectorTS.memberships` raises
 :class:`~vehicle_observers.core.errors.PremiseOutOfBounds` naming the premise, the sample and
 the value when a premise leaves them (``clip=True`` saturates instead, which is what an
 observer fed with noisy estimates needs; the TS model is then no longer exact there).
+
+The second TS form here is the *Jacobian* TS model of the differential mean value theorem
+(Ichalal, Arioui, Mammar, MED 2011, eqs. (12)-(18), (34)): :class:`JacobianTS`, built from
+entry bounds (:func:`jacobian_ts_from_bounds`) or from sampled Jacobians
+(:func:`jacobian_ts_from_samples`), the model of the DMVT observer's error dynamics
+(:mod:`vehicle_observers.observers.dmvt`).
 """
 
 from __future__ import annotations

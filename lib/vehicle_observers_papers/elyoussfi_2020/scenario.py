@@ -153,7 +153,7 @@ def evaluate_filter(model: UncertainLateralTS, sc: dict, h="measured", kind: str
     """Run :func:`~vehicle_observers.baselines.uio_ekf.run_filter` on a scenario of
     :func:`make_scenario` and compute the same metrics as :func:`evaluate` (``rmse_vy``,
     ``rmse_r``, ``rmse_f`` after the fault, ``fault_delay``...) plus ``run`` (the
-    :class:`~vehicle_observers.baselines.ekf_observer.EKFTrajectory`) and ``us_per_step``.
+    :class:`~vehicle_observers.baselines.ekf_observer.EKFTrajectory`, with ``us_per_step``).
 
     ``h='measured'``: the scenario's true memberships (comparison only: they contain the
     true slip angle and fault); ``None`` or ``'estimated'``: premises from the filter's own
@@ -163,5 +163,4 @@ def evaluate_filter(model: UncertainLateralTS, sc: dict, h="measured", kind: str
     run = ub.run_filter(model, sc["delta"], sc["y"], sc["dt"], hh, kind, **kw)
     out = estimate_metrics(run.x, sc)
     out["run"] = run
-    out["us_per_step"] = run.us_per_step
     return out

@@ -142,7 +142,7 @@ def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int
     O(dt^2)). ``p`` the truth :class:`~vehicle_observers.models.planar.PlanarParams`,
     ``sensor_std`` (5,) for ``R``. Returns a dict with ``res``
     (:class:`~vehicle_observers.baselines.sliding_mode_ekf.ForceEKFTrajectory`), ``Y`` (N, 5)
-    the measurements, ``rmse_*``, ``rmse_pct_*``, ``us_per_step``."""
+    the measurements, ``rmse_*``, ``rmse_pct_*`` (the cost per step is ``res.us_per_step``)."""
     if x2_err0 is None or x3_err0 is None:
         raise ValueError("part_a_ekf_run: give the initial errors x2_err0 (3,) and x3_err0 (2,) "
                          "(the paper runs': constants.x2_err0, x3_err0)")
@@ -154,7 +154,7 @@ def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int
                             filter=filter, **kw)
     F = Xs[:, 8:12]
     peak = np.max(np.abs(F), axis=0)
-    out = {"res": res, "Y": Y, "us_per_step": res.us_per_step}
+    out = {"res": res, "Y": Y}
     out.update(force_errors(res.t, res.F, sme.block_mean(F, res.dec), peak, t_skip,
                             FORCE_NAMES))
     return out

@@ -375,7 +375,7 @@ def ekf_metrics(ek: dict) -> dict:
 def ekf_timings(ek: dict, us_smo: float) -> dict:
     """Wall-clock cost of the EKF and the SMO (for ``Report.timing``, never a metric):
     ``{name: (value, unit, note)}``."""
-    us_ekf = ek["E"]["clean"]["us_per_step"]
+    us_ekf = ek["E"]["clean"]["res"].us_per_step
     f_smo, f_ekf = _rates(ek)
     return {"A_ekf_us_per_step": (us_ekf, "us", f"filterpy EKF, 9 states, {_hz(f_ekf)}"),
             "A_smo_us_per_step": (us_smo, "us", f"compiled SMO (sat), {_hz(f_smo)}, best of 3"),
