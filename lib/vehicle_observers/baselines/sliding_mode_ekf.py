@@ -47,9 +47,17 @@ import numpy as np
 from vehicle_observers.baselines.ekf_observer import EKFObserver, EKFTrajectory, filter_trajectory
 from vehicle_observers.baselines.filterpy_generic import run_ukf
 from vehicle_observers.core.errors import ObserverArgumentError
-from vehicle_observers.models.planar import G_ACC
+from vehicle_observers.models.planar import G_ACC, IU_DELTA, IU_TF, IU_TR
 from vehicle_observers.observers.fixed_step import positive, positive_array
-from vehicle_observers.observers.sliding_mode import ForceObserver, ForceObserverModel, omega_h
+from vehicle_observers.observers.sliding_mode import (
+    Z_TH,
+    Z_X2,
+    Z_X3,
+    Z_X4,
+    ForceObserver,
+    ForceObserverModel,
+    omega_h,
+)
 
 FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
 N_X = 9
@@ -66,26 +74,28 @@ def force_rw_model(model: ForceObserverModel):
     q = model.as_array()
     H5 = np.hstack([np.eye(5), np.zeros((5, 4))])
 
+    # state blocks [x2 = (v_x, v_y, r), x3 = (omega_f, omega_r), x4 = forces]: the first
+    # blocks of the force observer's state (Z_X2, Z_X3, Z_X4, ending at Z_TH)
     def f(x, u):
-        Om, H = omega_h(u[0], q)
-        F = x[5:9]
+        Om, H = omega_h(u[IU_DELTA], q)
+        F = x[Z_X4:Z_TH]
         dx = np.zeros(N_X)
-        dx[0:3] = Om @ F
-        dx[0] += x[1] * x[2]
+        dx[Z_X2:Z_X3] = Om @ F
+        dx[0] += x[1] * x[2]        # transport terms v_y r, -v_x r (R-A3)
         dx[1] -= x[0] * x[2]
-        dx[3:5] = u[1:3] / J - H @ F
+        dx[Z_X3:Z_X4] = u[IU_TF:IU_TR + 1] / J - H @ F
         return dx
 
     def A(x, Om, H):
         a = np.zeros((N_X, N_X))
-        a[0:3, 5:9] = Om
+        a[Z_X2:Z_X3, Z_X4:Z_TH] = Om
         a[0, 1], a[0, 2] = x[2], x[1]
         a[1, 0], a[1, 2] = -x[2], -x[0]
-        a[3:5, 5:9] = -H
+        a[Z_X3:Z_X4, Z_X4:Z_TH] = -H
         return a
 
     def jac(x, u, dt):
-        Om, H = omega_h(u[0], q)
+        Om, H = omega_h(u[IU_DELTA], q)
         eye = np.eye(N_X)
         k1 = f(x, u)
         d1 = A(x, Om, H)

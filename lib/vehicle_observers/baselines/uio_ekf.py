@@ -6,7 +6,7 @@ alternative to a UIO for fault estimation: augment the fault as a random-walk st
 Kalman filter on the *nominal* model.
 
 Model (the observer's nominal two-rule TS model, eqs. (8), (14)-(15) of the paper as
-reconstructed in :mod:`.observers.uio`, **without** the uncertainty ``M F(t) (N_a x + N_b u)``)::
+reconstructed in :mod:`.models.uncertain_lateral`, **without** the uncertainty ``M F(t) (N_a x + N_b u)``)::
 
     X = [v_y (m/s), r (rad/s), f (rad)],   u = delta (rad)
     X' = sum_i h_i (Abar_i X + Bbar_i u) + w_X,    Abar_i = [[A_i, B_i], [0, 0]]
@@ -58,6 +58,7 @@ from vehicle_observers.baselines.filterpy_generic import run_ukf
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models.uncertain_lateral import UncertainLateralTS
 from vehicle_observers.observers.fixed_step import positive, row_names
+from vehicle_observers.observers.uio import X_F, X_R, X_VY
 
 Array = np.ndarray
 
@@ -129,7 +130,7 @@ def _fault_model(model: UncertainLateralTS, premise: str):
 
     if premise == "estimated":
         def w_est(X, u0):
-            return tyres.memberships(u0 + X[2] - (X[0] + lf * X[1]) / vx)
+            return tyres.memberships(u0 + X[X_F] - (X[X_VY] + lf * X[X_R]) / vx)
 
         def f(X, u):
             A, B = _blend(w_est(X, u[0]), Ab, Bb)
@@ -150,7 +151,7 @@ def _fault_model(model: UncertainLateralTS, premise: str):
         return f, jac
 
     def f(X, u):
-        af = u[0] + X[2] - (X[0] + lf * X[1]) / vx
+        af = u[0] + X[X_F] - (X[X_VY] + lf * X[X_R]) / vx
         A, B = _blend(tyres.memberships(af), Ab, Bb)
         return A @ X + B * u[0]
     return f, None

@@ -177,13 +177,28 @@ def adaptation_study(man, Xs, modes=("sign", "sat"), adapt=ADAPT) -> dict:
             for mode in modes for lab, P in adapt}
 
 
+#: tolerance of the metrics of the sat-mode run adapting all 8 theta entries: that run
+#: amplifies rounding (1/sigma adapted without persistent excitation), so a change of one
+#: unit in the last place of the measurements moves its max RMSE and chattering by up to
+#: 1.6e-3 relative (measured over 8 perturbed truths); 5e-3 is three times that
+FULL_SAT_RTOL = 5e-3
+FULL_SAT_WHY = ("sat mode with all 8 theta entries adapted amplifies rounding: a one-ulp change "
+                "of the measurements moves the value by up to 1.6e-3 relative (measured on the "
+                "constant-friction run)")
+
+
 def adaptation_metrics(runs: dict, prefix: str = "A_adapt") -> dict:
-    """Max force RMSE [% of peak] and chattering [N] per :func:`adaptation_study` run."""
+    """Max force RMSE [% of peak] and chattering [N] per :func:`adaptation_study` run,
+    ``{name: (value, unit, note)}``; the sat-mode run with full adaptation adds ``(digits,
+    rtol, atol, why)`` (:data:`FULL_SAT_RTOL`: its values depend on rounding beyond their
+    stored precision)."""
     out = {}
     for (mode, lab), o in runs.items():
-        out[f"{prefix}_{mode}_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, adaptation {lab}")
+        tol = (4, FULL_SAT_RTOL, None, FULL_SAT_WHY) if (mode, lab) == ("sat", "full") else ()
+        out[f"{prefix}_{mode}_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak",
+                                                     f"{mode}, adaptation {lab}", *tol)
         out[f"{prefix}_{mode}_{lab}_chatter_max"] = (
-            max(o[f"chatter_{n}"] for n in R.FORCE_NAMES), "N", "step-to-step std")
+            max(o[f"chatter_{n}"] for n in R.FORCE_NAMES), "N", "step-to-step std", *tol)
     return out
 
 
