@@ -7,8 +7,8 @@ The DMVT observer on sampled data (:mod:`.dmvt`), the sliding-mode observers
 :meth:`~vehicle_observers.core.protocol.Observer.step` uses that ``dt`` and their compiled
 ``run`` accepts only a time grid with that step. :class:`FixedStepObserver` holds ``dt``,
 checks the grid, lets observers without inputs take ``u=None`` and times the compiled
-kernel (the first call in a process compiles or loads it from numba's cache: that call is
-made once untimed, so :attr:`~vehicle_observers.core.protocol.Trajectory.seconds` is the
+kernel (the first use in a process compiles it or loads it from numba's cache; that is done
+before the timed call, so :attr:`~vehicle_observers.core.protocol.Trajectory.seconds` is the
 loop alone).
 """
 
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 
+import numba
 import numpy as np
 
 from vehicle_observers.core.errors import ObserverArgumentError
@@ -93,9 +94,10 @@ class FixedStepObserver(ObserverBase):
     @staticmethod
     def timed(kernel, *args):
         """``(seconds, kernel(*args))``: wall time of one call of the compiled ``kernel``; a
-        kernel not yet compiled or loaded in this process is called once untimed first."""
+        kernel not yet compiled in this process is first compiled (or loaded from numba's
+        on-disk cache) for the argument types, without running it, outside the timing."""
         if not getattr(kernel, "signatures", True):
-            kernel(*args)
+            kernel.compile(tuple(numba.typeof(a) for a in args))
         t0 = time.perf_counter()
         out = kernel(*args)
         return time.perf_counter() - t0, out
