@@ -1,29 +1,17 @@
-"""filterpy EKF/UKF baseline for the DMVT observer on the bicycle (Ichalal 2011):
-RK4-step Jacobian, sampled-data DMVT observer, Q rule, EKF vs an independent EKF, metrics."""
+"""filterpy EKF baseline for the DMVT observer on the bicycle (Ichalal 2011): RK4-step
+Jacobian, Q rule, EKF vs an independent EKF, the EKF under the observer contract."""
 
 import numpy as np
 import pytest
 from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.baselines.filterpy_generic import numerical_jacobian, rk4_step, run_ekf
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.core.protocol import Observer, run_readable
 from vehicle_observers.models import bicycle as b
-from vehicle_observers.observers import dmvt
 from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 BP, C = ic.params, ic.C
 XHAT0 = np.array([0.1, -0.1, 0.1, 0.5])
-
-
-@pytest.fixture(scope="module")
-def setup():
-    """TS model and a DMVT gain (r = 1, no region) designed as in notebook 04."""
-    t = np.arange(0.0, 10.0, 2e-3)
-    X, U = b.simulate(BP, t)
-    z = b.ts_premises(X, U, BP)
-    lo, hi = z.min(0), z.max(0)
-    ts = b.bicycle_ts(BP, list(zip(lo - 0.05 * (hi - lo), hi + 0.05 * (hi - lo))))
-    jts = dmvt.jacobian_ts_from_samples(b.jacobian(X, U, BP))
-    d = dmvt.design_dmvt_observer(jts.vertices, C, r=1)
-    return ts, d.L
 
 
 def test_rk4_step_and_jacobian_match_rk4_and_finite_differences():
@@ -105,21 +93,6 @@ def test_ekf_with_discretisation_q_is_consistent(synthetic):
     assert np.all(eps(100 * Q)[[1, 3]] < 0.5)   # the band rejects a 100x wrong Q
 
 
-def test_sampled_data_dmvt_converges_to_cosimulation_at_first_order(setup):
-    """run_dmvt_on_data holds u_k, y_k over the sample; the co-simulation evaluates them in
-    the RK4 stages. ZOH is a first-order approximation: halving dt halves the difference."""
-    ts, L = setup
-    diffs = []
-    for dt in (1e-3, 5e-4):
-        t = np.arange(0.0, 1.0, dt)
-        X, Xh, U = dmvt.simulate_bicycle_observer(BP, t, ts, L, C, xhat0=XHAT0)
-        Xd, sec = bb.run_dmvt_on_data(BP, ts, L, C, X @ C.T, U, dt, XHAT0)
-        assert sec > 0
-        diffs.append(np.abs(Xd - Xh).max())
-    assert diffs[0] > 1e-4       # the two implementations do differ at dt = 1 ms
-    assert 1.6 < diffs[0] / diffs[1] < 2.4
-
-
 def _hand_ekf(z, U, dt, x0, P0, Qc, R):
     """Independent EKF in numpy: update (y = C x) then predict with the analytic RK4
     Jacobian (chain rule through the stages) of bb.rk4_step_and_jacobian."""
@@ -150,59 +123,44 @@ def test_filterpy_ekf_equals_independent_ekf():
     assert np.abs(run.x - ref).max() < 1e-8
 
 
-def test_compare_estimators_results_and_prior_error_metrics(setup):
-    ts, L = setup
-    dt = 1e-3
-    t = np.arange(0.0, 0.6, dt)
-    X, _, U = dmvt.simulate_bicycle_observer(BP, t, ts, L, C, xhat0=XHAT0)
-    Y = X @ C.T + 0.01 * np.random.default_rng(0).standard_normal((len(t), 2))
+def _ekf_case(T=1.0, dt=1e-3):
+    t = np.arange(0.0, T, dt)
+    X, U = b.simulate(BP, t)
+    Y = X @ C.T + 1e-3 * np.random.default_rng(1).standard_normal((len(t), 2))
     Qc = bb.discretisation_q(bb.bicycle_f(BP), X, U, dt)
-    res = bb.compare_estimators(BP, ts, {"dmvt": L}, C, t, X, U, Y, XHAT0, Qc,
-                                1e-4 * np.eye(2), np.eye(4), t_late=0.3)
-    assert set(res) == {"dmvt", "ekf", "ukf"}
-    Xd, _ = bb.run_dmvt_on_data(BP, ts, L, C, Y, U, dt, XHAT0)
-    np.testing.assert_array_equal(res["dmvt"].xhat, Xd)
-    for r in res.values():
-        assert r.rmse.shape == r.rmse_late.shape == r.overshoot.shape == (4,)
-        assert np.all(r.rmse > 0) and r.us_per_step > 0
-    # the filters' first posterior already moved the measured states: x_0|0 != xhat0
-    assert np.abs(res["ekf"].xhat[0, [0, 2]] - XHAT0[[0, 2]]).min() > 0.05
-    with pytest.raises(ValueError, match="uniform"):
-        bb.compare_estimators(BP, ts, {"dmvt": L}, C, t ** 2, X, U, Y, XHAT0, Qc,
-                              1e-4 * np.eye(2), np.eye(4))
-    with pytest.raises(ValueError, match="t_late = 0.7 s is past the end"):
-        bb.compare_estimators(BP, ts, {"dmvt": L}, C, t, X, U, Y, XHAT0, Qc,
-                              1e-4 * np.eye(2), np.eye(4), t_late=0.7)
+    P0, R = np.diag(np.array([0.2, 0.1, 0.2, 0.5]) ** 2), 1e-6 * np.eye(2)
+    return t, U[:, None], Y, bb.BicycleEKF(BP, C, dt, Qc, R, P0)
 
 
-def test_result_metrics_on_a_constructed_error_signal():
-    """Known answers: error pattern p = (0.3 recorded / 1 prior, -0.5, 0, 0, 0, 0.2, -0.2,
-    0.2, -0.2, 0) scaled by c_i per state, t = 0, 0.1, ..., 0.9 s, t_late = 0.5 s.
-    RMSE (recorded x_0|0) = |c| sqrt((0.09 + 0.25 + 0.16) / 10) = |c| sqrt(0.05); late RMSE =
-    |c| sqrt(0.16 / 5); overshoot from the prior error 1: 0.5 (it would be 0.5 / 0.3 from the
-    recorded one); 2 % settling: last sample outside 0.02 is k = 8 -> t = 0.9 s."""
-    t = np.arange(10) * 0.1
-    c = np.array([1.0, 2.0, -1.0, 0.5])
-    p = np.array([0.3, -0.5, 0, 0, 0, 0.2, -0.2, 0.2, -0.2, 0])
-    X = np.zeros((10, 4))
-    Xh = -np.outer(p, c)                      # e = x - xhat = p c
-    r = bb._result("est", t, X, Xh, -c, 2e-3, 0.5)   # prior error x(0) - xhat0 = c
-    np.testing.assert_allclose(r.rmse, np.abs(c) * np.sqrt(0.05), rtol=1e-12)
-    np.testing.assert_allclose(r.rmse_late, np.abs(c) * np.sqrt(0.032), rtol=1e-12)
-    np.testing.assert_allclose(r.overshoot, 0.5, rtol=1e-12)
-    np.testing.assert_allclose(r.settling, 0.9, rtol=1e-12)
-    assert r.us_per_step == pytest.approx(200.0)
-    np.testing.assert_array_equal(r.xhat, Xh)      # the recorded estimate is kept
+def test_bicycle_ekf_run_readable_equals_run():
+    """The EKF under the observer contract: the numpy predict/update step looped equals the
+    filterpy loop. Both evaluate the same formulas (Joseph form, exact RK4 Jacobian) with a
+    different inverse routine and product order: rounding only, and the filter is stable,
+    so 1e-9 relative (about 1e7 ulps) is ample and a wrong order of predict/update (an
+    O(dt) change) fails it."""
+    t, u, y, ekf = _ekf_case()
+    assert isinstance(ekf, Observer) and ekf.design.certificate is None
+    tr, rd = ekf.run(t, u, y, XHAT0), run_readable(ekf, t, u, y, XHAT0)
+    np.testing.assert_allclose(rd.x, tr.x, rtol=1e-9, atol=1e-12)
+    assert tr.P_diag.shape == tr.x.shape and tr.names == ekf.state_names
+    ref = run_ekf(bb.bicycle_f(BP), lambda x, u: C @ x, y, u, ekf.dt, XHAT0, ekf.design.P0,
+                  ekf.design.Q, ekf.design.R, jac=bb.rk4_step_and_jacobian(BP),
+                  hjac=lambda x, u: C)
+    np.testing.assert_array_equal(tr.x, ref.x)
 
 
-def test_run_dmvt_on_data_rejects_wrong_shapes(setup):
-    ts, L = setup
-    Y, U = np.zeros((5, 2)), np.zeros(5)
-    for kw, msg in (({"L": L[:, :, :1]}, r"L must have shape \(r, 4, ny\) with r = 8 rules "
-                                         r"or 1, ny = 2, got \(1, 4, 1\)"),
-                    ({"L": np.repeat(L, 3, axis=0)}, r"L must .* got \(3, 4, 2\)"),
-                    ({"C": C[:, :3]}, r"C must have shape \(ny, 4\) .* got \(2, 3\)"),
-                    ({"xhat0": XHAT0[:3]}, r"xhat0 must have shape \(4,\), got \(3,\)")):
-        args = {"L": L, "C": C, "xhat0": XHAT0} | kw
-        with pytest.raises(ValueError, match=msg):
-            bb.run_dmvt_on_data(BP, ts, args["L"], args["C"], Y, U, 1e-3, args["xhat0"])
+def test_bicycle_ekf_is_causal_and_checks_arguments():
+    t, u, y, ekf = _ekf_case(0.3)
+    k = 120
+    y2 = y.copy()
+    y2[k + 1:] += 0.1
+    np.testing.assert_array_equal(ekf.run(t, u, y2, XHAT0).x[:k + 1],
+                                  ekf.run(t, u, y, XHAT0).x[:k + 1])
+    with pytest.raises(ObserverArgumentError, match="x0"):
+        ekf.run(t, u, y)
+    with pytest.raises(ObserverArgumentError, match=r"Q must be \(4, 4\)"):
+        bb.BicycleEKF(BP, C, 1e-3, np.eye(3), np.eye(2), np.eye(4))
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        bb.BicycleEKF(BP, C, -1e-3, np.eye(4), np.eye(2), np.eye(4))
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        bb.discretisation_q(bb.bicycle_f(BP), np.zeros((3, 4)), np.zeros(3), 0.0)

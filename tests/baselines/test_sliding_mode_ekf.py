@@ -4,9 +4,12 @@ import numpy as np
 import pytest
 from vehicle_observers.baselines import sliding_mode_ekf as pb
 from vehicle_observers.baselines.filterpy_generic import numerical_jacobian, rk4_step
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.core.metrics import rmse
+from vehicle_observers.core.protocol import Observer, run_readable
 from vehicle_observers.models import planar as pl
 from vehicle_observers.observers import sliding_mode as smo
+from vehicle_observers_papers.rabhi_2004 import experiments as EX
 
 P = pl.PlanarParams()
 MODEL = smo.ForceObserverModel.from_params(P)
@@ -61,7 +64,7 @@ def _post_fit_ratio(r, Y, std, m):
     consistent (linear) Kalman filter has covariance ``R - H P_post H'``, so each ratio is
     near 1; an R that is too large (small) makes it small (large)."""
     res = Y[m] - r.x[m, :5]
-    return np.mean(res**2 / (np.asarray(std) ** 2 - r.run.P_diag[m, :5]), axis=0)
+    return np.mean(res**2 / (np.asarray(std) ** 2 - r.P_diag[m, :5]), axis=0)
 
 
 def test_own_model_forces_consistent():
@@ -125,13 +128,13 @@ def test_part_a_run_same_data_and_metrics(monkeypatch):
     man = pl.paper_manoeuvre(2.0, 5e-4)
     Xs = pl.simulate(pl.free_rolling_state(man.v0, P), man.U, 5e-4, P)
     noise = (0.02, 0.02, 0.002, 0.05, 0.05)
-    o = pb.part_a_ekf_run(man, Xs, P, noise, noise=noise, seed=7, decimate=10, t_skip=1.0,
+    o = EX.part_a_ekf_run(man, Xs, P, noise, noise=noise, seed=7, decimate=10, t_skip=1.0,
                           x2_err0=R.x2_err0, x3_err0=R.x3_err0)
     r = o["res"]
-    Y_smo = R.part_a_run(man, Xs, noise=noise, seed=7, p=P)["Y"]
+    Y_smo = EX.part_a_run(man, Xs, noise=noise, seed=7, p=P)["Y"]
     assert np.array_equal(o["Y"], Y_smo)
     assert np.array_equal(r.z, pb.block_mean(Y_smo, 10))
-    assert not np.array_equal(r.z, pb.block_mean(smo.measurements_from_truth(Xs, noise, 8), 10))
+    assert not np.array_equal(r.z, pb.block_mean(pl.measurements(Xs, noise, 8), 10))
     assert np.array_equal(r.u, pb.block_mean(man.U, 10))
     nb = len(man.t) // 10
     assert np.array_equal(r.idx, np.arange(nb) * 10)
@@ -148,7 +151,7 @@ def test_part_a_run_same_data_and_metrics(monkeypatch):
     seen = {}
     real = pb.run_force_ekf
     monkeypatch.setattr(pb, "run_force_ekf", lambda *a, **kw: seen.update(kw) or real(*a, **kw))
-    pb.part_a_ekf_run(man, Xs, P, noise, decimate=10, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
+    EX.part_a_ekf_run(man, Xs, P, noise, decimate=10, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
     x0 = np.concatenate([Xs[0, 3:6] + R.x2_err0, Xs[0, 6:8] + R.x3_err0, np.zeros(4)])
     assert np.array_equal(seen["x0"], x0) and np.isfinite(r.x).all()
 
@@ -178,4 +181,26 @@ def test_input_errors():
     with pytest.raises(ValueError, match="uniformly"):
         pb.run_force_ekf(t[::-1], Y, U, MODEL, STD)
     with pytest.raises(ValueError, match="t_skip"):
-        pb.force_errors(t, Y[:, :4], Y[:, :4], np.ones(4), t_skip=10.0)
+        EX.force_errors(t, Y[:, :4], Y[:, :4], np.ones(4), t_skip=10.0)
+    with pytest.raises(ObserverArgumentError, match="sensor_std"):
+        pb.run_force_ekf(t, Y, U, MODEL, -STD)
+    with pytest.raises(ObserverArgumentError, match="t_rise"):
+        pb.run_force_ekf(t, Y, U, MODEL, STD, t_rise=-1.0)
+
+
+def test_force_ekf_run_readable_equals_run_and_is_causal():
+    """The random-walk-force EKF under the observer contract: the numpy predict/update step
+    looped equals the filterpy loop (the same Joseph-form formulas and exact RK4 Jacobian in
+    another product order: rounding only, 1e-9 relative over 200 steps, while a wrong
+    predict/update order moves the forces by O(dt) ~ 1e-2 relative), and samples after k
+    do not change the estimate at k."""
+    t, U, X, Y = own_model_run(N=200)
+    Q, R = pb.noise_rule(MODEL, STD, T_RISE)
+    ekf = pb.ForceEKF(MODEL, DT, Q, R, np.diag(np.r_[np.ones(5), 1e6 * np.ones(4)]))
+    assert isinstance(ekf, Observer)
+    tr, rd = ekf.run(t, U, Y, X[0]), run_readable(ekf, t, U, Y, X[0])
+    np.testing.assert_allclose(rd.x, tr.x, rtol=1e-9, atol=1e-9)
+    k = 90
+    Y2 = Y.copy()
+    Y2[k + 1:] += 1.0
+    np.testing.assert_array_equal(ekf.run(t, U, Y2, X[0]).x[:k + 1], tr.x[:k + 1])

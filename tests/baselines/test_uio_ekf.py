@@ -6,8 +6,10 @@ import dataclasses
 import numpy as np
 import pytest
 from vehicle_observers.baselines import uio_ekf as ub
-from vehicle_observers.observers import uio
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.core.protocol import Observer, run_readable
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
+from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 T_FAULT, T_END = 1.5, 4.0
 
@@ -24,7 +26,7 @@ def nominal_case(model):
     """Truth = the filter's own model (rho = 0: no uncertainty), noise 10x smaller than the
     design's, constant fault 0.01 rad from 1.5 s."""
     nom = dataclasses.replace(model, rho=0.0, D_w=0.1 * model.D_w)
-    sc = uio.make_scenario(nom, T_END, P.dt, T_FAULT, P.x0_true, seed=3, fault_kw={"amp": 0.0})
+    sc = sn.make_scenario(nom, T_END, P.dt, T_FAULT, P.x0_true, seed=3, fault_kw={"amp": 0.0})
     return nom, sc
 
 
@@ -85,7 +87,7 @@ def test_noise_rule_per_sample_vs_correlation_time(model):
 @pytest.mark.parametrize("premise", ["measured", None, "estimated"])
 def test_ekf_converges_on_its_own_model(nominal_case, premise):
     nom, sc = nominal_case
-    ev = ub.evaluate_filter(nom, sc, h=premise, kind="ekf")
+    ev = sn.evaluate_filter(nom, sc, h=premise, kind="ekf")
     run = ev["run"]
     assert run.x.shape == (len(sc["t"]), 3) and run.P_diag.shape == (len(sc["t"]), 3)
     last = sc["t"] >= T_END - 1.0
@@ -133,19 +135,48 @@ def test_bad_input(model, nominal_case):
     with pytest.raises(ValueError, match=r"P0 must be \(3, 3\)"):
         ub.run_filter(model, d, y, P.dt, h, P0=np.eye(2))
     with pytest.raises(ValueError, match=r"Xh must be"):
-        uio.estimate_metrics(np.zeros((len(d), 2)), sc)
+        sn.estimate_metrics(np.zeros((len(d), 2)), sc)
 
 
 def test_estimate_metrics_known_answer_and_empty_windows(nominal_case):
     _, sc = nominal_case
     ref = np.column_stack([sc["X"], sc["f"]])
     off = np.array([0.01, -0.002, 3e-4])
-    m = uio.estimate_metrics(ref + off, sc)               # constant error -> RMSE = |offset|
+    m = sn.estimate_metrics(ref + off, sc)               # constant error -> RMSE = |offset|
     for k, nm in enumerate(("vy", "r", "f")):
         assert m[f"rmse_{nm}"] == pytest.approx(abs(off[k]), rel=1e-12)
         assert m[f"rmse_{nm}_before"] == pytest.approx(abs(off[k]), rel=1e-12)
     # fault at 1 s: the 'before' window [1 s, t_fault) is empty -> clear error, not NaN
     with pytest.raises(ValueError, match="t_fault must exceed 1 s"):
-        uio.estimate_metrics(ref, {**sc, "t_fault": 1.0})
+        sn.estimate_metrics(ref, {**sc, "t_fault": 1.0})
     with pytest.raises(ValueError, match="metric windows"):   # fault after the run
-        uio.estimate_metrics(ref, {**sc, "t_fault": T_END + 1.0})
+        sn.estimate_metrics(ref, {**sc, "t_fault": T_END + 1.0})
+
+
+@pytest.mark.parametrize("premise", ["measured", "estimated", "nonlinear"])
+def test_fault_ekf_run_readable_equals_run_and_is_causal(nominal_case, premise):
+    """The fault EKF under the observer contract: the numpy predict/update step looped equals
+    the filterpy loop (same Joseph-form formulas; the Jacobian is the exact RK4 map, or the
+    same central differences of it: rounding only, 1e-9 relative over 300 steps, while a
+    wrong predict/update order moves the fault estimate by O(dt)), and the estimate at k
+    does not see the samples after k."""
+    nom, sc = nominal_case
+    n = 300
+    t, y = sc["t"][:n], sc["y"][:n]
+    u = (np.column_stack([sc["delta"], sc["h"]]) if premise == "measured" else sc["delta"][:, None])[:n]
+    Q, R, _ = ub.noise_rule(nom, P.dt)
+    ekf = ub.FaultEKF(nom, P.dt, Q, R, np.diag(nom.scale_x**2), premise)
+    assert isinstance(ekf, Observer)
+    x0 = np.array([0.1, 0.0, 0.0])
+    tr, rd = ekf.run(t, u, y, x0), run_readable(ekf, t, u, y, x0)
+    np.testing.assert_allclose(rd.x, tr.x, rtol=1e-9, atol=1e-12)
+    if premise != "nonlinear":   # run_filter with the same premise is this run
+        h = sc["h"][:n] if premise == "measured" else "estimated"
+        np.testing.assert_array_equal(ub.run_filter(nom, sc["delta"][:n], y, P.dt, h, X0=x0).x,
+                                      tr.x)
+    k = 150
+    y2 = y.copy()
+    y2[k + 1:] += 0.05
+    np.testing.assert_array_equal(ekf.run(t, u, y2, x0).x[:k + 1], tr.x[:k + 1])
+    with pytest.raises(ObserverArgumentError, match="premise"):
+        ub.FaultEKF(nom, P.dt, Q, R, np.eye(3), "true")

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models import bicycle
 from vehicle_observers_papers.ichalal_2011 import constants as I
 
@@ -39,5 +40,21 @@ def test_closed_loop_tracks_reference():
 
 
 def test_time_grid_must_increase():
-    with pytest.raises(ValueError, match="strictly increasing"):
+    with pytest.raises(ObserverArgumentError, match="strictly increasing"):
         bicycle.simulate(bp, np.array([0.0, 0.1, 0.1]))
+    with pytest.raises(ObserverArgumentError, match="x0"):
+        bicycle.simulate(bp, np.array([0.0, 0.1]), x0=(0.0, np.nan, 0.0, 0.0))
+
+
+def test_plant_rhs_is_the_vectorised_model():
+    """The compiled closed loop (25)+(27) (shared with the observer co-simulation) equals
+    rhs (25) with the tracking law (27): the same expressions, to rounding."""
+    rng = np.random.default_rng(2)
+    P = bp.as_array()
+    for _ in range(20):
+        x, t = rng.normal(size=4), rng.uniform(0, 10)
+        out = np.empty(4)
+        u = bicycle.plant_rhs(x, t, P, out)
+        assert u == pytest.approx(bicycle.control(x, t, bp), rel=1e-14, abs=1e-14)
+        np.testing.assert_allclose(out, bicycle.rhs(x[None], np.array([u]), bp)[0],
+                                   rtol=1e-13, atol=1e-13)

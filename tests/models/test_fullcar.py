@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models import fullcar as fc
 
 P = fc.FullCarParams()
@@ -99,3 +100,7 @@ def test_bad_road_input():
     U[3, 2] = np.inf
     with pytest.raises(ValueError, match="row 3"):
         fc.simulate(U, 1e-3, P)
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        fc.simulate(np.zeros((10, 4)), -1e-3, P)
+    with pytest.raises(ObserverArgumentError, match="x0"):
+        fc.simulate(np.zeros((10, 4)), 1e-3, P, x0=np.zeros(7))

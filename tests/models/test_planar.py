@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models import planar as pl
 
 P = pl.PlanarParams()
@@ -111,10 +112,46 @@ def test_manoeuvre_excites_all_forces():
     assert Xs[:, 3].min() > 5.0
 
 
+def test_steady_forces_are_the_textbook_magic_formula():
+    """The kernels call models.tires.magic_formula, ``B (1 - E) k + E atan(B k)``; the
+    textbook form of the module docstring is ``B k - E (B k - atan(B k))``: the same number
+    up to rounding (1e-12 relative), with the cosine weights of combined slip."""
+    X, U = random_states(50, seed=3)
+    for x, u in zip(X, U, strict=True):
+        F, S = pl.steady_forces(x, u[0], P)
+        for i, Fz in enumerate((P.Fz_f, P.Fz_r)):
+            kappa, alpha = S[i], S[2 + i]
+            D = P.mu * Fz
+
+            def mf(s, B, C, E):
+                return D * np.sin(C * np.arctan(B * s - E * (B * s - np.arctan(B * s))))
+            Fx = mf(kappa, P.B_x, P.C_x, P.E_x) * np.cos(P.C_xa * np.arctan(P.B_xa * alpha))
+            Fy = mf(alpha, P.B_y, P.C_y, P.E_y) * np.cos(P.C_yk * np.arctan(P.B_yk * kappa))
+            assert F[i] == pytest.approx(Fx, rel=1e-12, abs=1e-9)
+            assert F[2 + i] == pytest.approx(Fy, rel=1e-12, abs=1e-9)
+
+
+def test_measurements_pick_the_measured_states():
+    X, _ = random_states(20)
+    np.testing.assert_array_equal(pl.measurements(X), X[:, [3, 4, 5, 6, 7]])
+    noisy = pl.measurements(X, (0.1, 0.0, 0.0, 0.0, 0.0), seed=1)
+    assert np.array_equal(noisy[:, 1:], X[:, 4:8]) and not np.array_equal(noisy[:, 0], X[:, 3])
+    with pytest.raises(ObserverArgumentError, match="noise_std"):
+        pl.measurements(X, (-0.1, 0, 0, 0, 0))
+    with pytest.raises(ObserverArgumentError, match="Xs"):
+        pl.measurements(X[:, :5])
+
+
 def test_bad_inputs():
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(ObserverArgumentError, match="U must have shape"):
         pl.simulate(np.zeros(12), np.zeros((10, 2)), 1e-3, P)
     U = np.zeros((10, 3))
     U[4, 1] = np.nan
-    with pytest.raises(ValueError, match="row 4"):
+    with pytest.raises(ObserverArgumentError, match="row 4"):
         pl.simulate(np.zeros(12), U, 1e-3, P)
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        pl.simulate(np.zeros(12), np.zeros((10, 3)), 0.0, P)
+    with pytest.raises(ObserverArgumentError, match="substeps"):
+        pl.simulate(np.zeros(12), np.zeros((10, 3)), 1e-3, P, substeps=0)
+    with pytest.raises(ObserverArgumentError, match="X0"):
+        pl.simulate(np.zeros(11), np.zeros((10, 3)), 1e-3, P)

@@ -1,8 +1,16 @@
 import numpy as np
 import pytest
-from vehicle_observers.core.errors import PremiseOutOfBounds
+from vehicle_observers.core.errors import ObserverArgumentError, PremiseOutOfBounds
 from vehicle_observers.models import bicycle, lateral
-from vehicle_observers.models.ts import Premise, SectorTS, memberships, vertex_bits
+from vehicle_observers.models.ts import (
+    Premise,
+    SectorTS,
+    jacobian_ts_from_bounds,
+    jacobian_ts_from_samples,
+    memberships,
+    numerical_jacobian,
+    vertex_bits,
+)
 from vehicle_observers_papers.ichalal_2011 import constants as I
 from vehicle_observers_papers.yacine_2015 import constants as Y
 
@@ -105,3 +113,58 @@ def test_bicycle_ts_exact():
     ts = bicycle.bicycle_ts(bp, list(zip(z.min(axis=0) - 1e-9, z.max(axis=0) + 1e-9)))
     res = ts.exactness(x, u, lambda x_, u_: bicycle.rhs(x_, np.ravel(u_), bp))
     assert res["max_rel_diff"] < 1e-13
+
+
+# ---- Jacobian TS model (Ichalal 2011, (14)-(18), (34)) ---------------------------------
+def test_numerical_jacobian_of_linear_map_is_exact():
+    A = np.array([[1.0, 2.0], [-3.0, 0.5]])
+    x = np.random.default_rng(1).normal(size=(4, 2))
+    J = numerical_jacobian(lambda x, u: x @ A.T, x, None)
+    np.testing.assert_allclose(J, np.broadcast_to(A, (4, 2, 2)), rtol=0, atol=1e-9)
+
+
+def _bike_jts():
+    bp = I.params
+    t = np.arange(0, 10, 2e-3)
+    X, U = bicycle.simulate(bp, t)
+    return jacobian_ts_from_samples(bicycle.jacobian(X, U, bp), names=["xi1", "xi2"]), X, U
+
+
+def test_jacobian_ts_detects_varying_entries_and_interpolates_exactly():
+    jts, X, U = _bike_jts()
+    assert jts.entries == [(3, 1), (3, 2)]
+    assert jts.q == 4
+    J = bicycle.jacobian(X, U, I.params)
+    h = jts.weights(J)
+    np.testing.assert_allclose(h.sum(axis=1), 1.0, atol=1e-12)
+    assert h.min() >= -1e-12
+    np.testing.assert_allclose(np.einsum("ni,ijk->njk", h, jts.vertices), J, atol=1e-9)
+
+
+def test_jacobian_ts_vertex_ordering_matches_printed_34():
+    jts = jacobian_ts_from_bounds(
+        np.array([[0, 30.0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1], [0, 0, 0, 0]]),
+        {(3, 1): I.xi1_bounds_printed, (3, 2): I.xi2_bounds_printed})
+    np.testing.assert_array_equal(jts.vertices, np.array(I.printed_jacobian_vertices()))
+    # h1 = F1^1 F2^1: weight 1 on A1 when xi1, xi2 sit at their lower bounds
+    J = jts.vertices[0][None]
+    np.testing.assert_allclose(jts.weights(J), [[1, 0, 0, 0]], atol=1e-12)
+
+
+def test_jacobian_ts_errors_name_the_entry():
+    jts, _, _ = _bike_jts()
+    J = jts.vertices[3].copy()
+    J[3, 2] += 1.0
+    with pytest.raises(PremiseOutOfBounds, match="xi2"):
+        jts.weights(J[None])
+    np.testing.assert_allclose(jts.weights(J[None], clip=True), [[0, 0, 0, 1]], atol=1e-12)
+    with pytest.raises(ObserverArgumentError, match="upper > lower"):
+        jacobian_ts_from_bounds(np.zeros((2, 2)), {(0, 1): (2.0, 1.0)})
+    with pytest.raises(ObserverArgumentError, match="outside a 2x2"):
+        jacobian_ts_from_bounds(np.zeros((2, 2)), {(2, 1): (0.0, 1.0)})
+    with pytest.raises(ObserverArgumentError, match="shape"):
+        jacobian_ts_from_samples(np.zeros((3, 2, 3)))
+    bad = np.zeros((3, 2, 2))
+    bad[1, 0, 0] = np.nan
+    with pytest.raises(ObserverArgumentError, match="sample 1"):
+        jacobian_ts_from_samples(bad)

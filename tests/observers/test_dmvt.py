@@ -3,9 +3,11 @@ regions (35)-(36) on systems with a known answer, certification, observer, error
 
 import numpy as np
 import pytest
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.core.protocol import Design, Observer, run_readable
 from vehicle_observers.design.lmi import disk, halfplane, sector
 from vehicle_observers.models import bicycle as b
+from vehicle_observers.models.ts import jacobian_ts_from_samples, numerical_jacobian
 from vehicle_observers.observers import dmvt
 from vehicle_observers_papers.ichalal_2011 import constants as ic
 
@@ -13,19 +15,12 @@ BP = ic.params
 
 
 # ---- Jacobian (31)-(33) -----------------------------------------------------------------
-def test_numerical_jacobian_of_linear_map_is_exact():
-    A = np.array([[1.0, 2.0], [-3.0, 0.5]])
-    x = np.random.default_rng(1).normal(size=(4, 2))
-    J = dmvt.numerical_jacobian(lambda x, u: x @ A.T, x, None)
-    np.testing.assert_allclose(J, np.broadcast_to(A, (4, 2, 2)), rtol=0, atol=1e-9)
-
-
 def test_shared_bicycle_jacobian_matches_finite_differences():
     """bicycle.jacobian (lead's derivation) vs central differences of bicycle.rhs (25)."""
     rng = np.random.default_rng(7)
     x = rng.uniform([-3, -0.3, -1.2, -1.5], [3, 0.3, 1.2, 1.5], size=(200, 4))
     u = rng.uniform(-10, 10, size=200)
-    Jfd = dmvt.numerical_jacobian(lambda x, u: b.rhs(x, u, BP), x, u)
+    Jfd = numerical_jacobian(lambda x, u: b.rhs(x, u, BP), x, u)
     Ja = b.jacobian(x, u, BP)
     # central-difference truncation error ~ h^2 |f'''| ~ 1e-12 * 200 -> far below 1e-6
     np.testing.assert_allclose(Ja, Jfd, rtol=1e-7, atol=1e-6)
@@ -42,51 +37,11 @@ def test_bicycle_jacobian_hand_values_at_upright():
     assert BP.g / BP.p == pytest.approx(16.35, abs=1e-12)
 
 
-# ---- Jacobian TS model (14)-(18), (34) --------------------------------------------------
+# ---- helpers ---------------------------------------------------------------------------
 def _bike_jts():
     t = np.arange(0, 10, 2e-3)
     X, U = b.simulate(BP, t)
-    return dmvt.jacobian_ts_from_samples(b.jacobian(X, U, BP), names=["xi1", "xi2"]), X, U
-
-
-def test_jacobian_ts_detects_varying_entries_and_interpolates_exactly():
-    jts, X, U = _bike_jts()
-    assert jts.entries == [(3, 1), (3, 2)]
-    assert jts.q == 4
-    J = b.jacobian(X, U, BP)
-    h = jts.weights(J)
-    np.testing.assert_allclose(h.sum(axis=1), 1.0, atol=1e-12)
-    assert h.min() >= -1e-12
-    np.testing.assert_allclose(np.einsum("ni,ijk->njk", h, jts.vertices), J, atol=1e-9)
-
-
-def test_jacobian_ts_vertex_ordering_matches_printed_34():
-    jts = dmvt.jacobian_ts_from_bounds(
-        np.array([[0, 30.0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1], [0, 0, 0, 0]]),
-        {(3, 1): ic.xi1_bounds_printed, (3, 2): ic.xi2_bounds_printed})
-    np.testing.assert_array_equal(jts.vertices, np.array(ic.printed_jacobian_vertices()))
-    # h1 = F1^1 F2^1: weight 1 on A1 when xi1, xi2 sit at their lower bounds
-    J = jts.vertices[0][None]
-    np.testing.assert_allclose(jts.weights(J), [[1, 0, 0, 0]], atol=1e-12)
-
-
-def test_jacobian_ts_errors_name_the_entry():
-    jts, _, _ = _bike_jts()
-    J = jts.vertices[3].copy()
-    J[3, 2] += 1.0
-    with pytest.raises(ValueError, match="xi2"):
-        jts.weights(J[None])
-    np.testing.assert_allclose(jts.weights(J[None], clip=True), [[0, 0, 0, 1]], atol=1e-12)
-    with pytest.raises(ValueError, match="upper > lower"):
-        dmvt.jacobian_ts_from_bounds(np.zeros((2, 2)), {(0, 1): (2.0, 1.0)})
-    with pytest.raises(ValueError, match="outside a 2x2"):
-        dmvt.jacobian_ts_from_bounds(np.zeros((2, 2)), {(2, 1): (0.0, 1.0)})
-    with pytest.raises(ValueError, match="shape"):
-        dmvt.jacobian_ts_from_samples(np.zeros((3, 2, 3)))
-    bad = np.zeros((3, 2, 2))
-    bad[1, 0, 0] = np.nan
-    with pytest.raises(ValueError, match="sample 1"):
-        dmvt.jacobian_ts_from_samples(bad)
+    return jacobian_ts_from_samples(b.jacobian(X, U, BP), names=["xi1", "xi2"]), X, U
 
 
 # ---- region LMIs on systems with a known answer -------------------------------------------
@@ -187,6 +142,12 @@ def test_design_input_errors():
         dmvt.design_dmvt_observer(A, np.ones((1, 2)), r=0)
     with pytest.raises(TypeError, match="Region"):
         dmvt.design_dmvt_observer(A, np.ones((1, 2)), region=[1.0])
+    for kw, name in (({"P_lower": -1.0}, "P_lower"), ({"eps": 0.0}, "eps"),
+                     ({"K_bound": -5.0}, "K_bound"), ({"r": 1.5}, "r")):
+        with pytest.raises(ObserverArgumentError, match=name):
+            dmvt.design_dmvt_observer(A, np.ones((1, 2)), **kw)
+    with pytest.raises(ObserverArgumentError, match="C must be finite"):
+        dmvt.design_dmvt_observer(A, np.array([[np.nan, 1.0]]))
 
 
 # ---- observer (6) ---------------------------------------------------------------------
@@ -216,24 +177,115 @@ def test_observer_plant_part_equals_shared_simulator_and_error_decays():
     np.testing.assert_allclose(Xh2, Xs2, atol=1e-12)
 
 
-def test_readable_observer_step_equals_compiled_and_model_part_is_f():
-    """dmvt.observer_step (numpy, shown in notebook 04) = compiled observer_rhs, with 8
+def test_readable_rhs_equals_compiled_and_model_part_is_f():
+    """DMVTObserver.rhs (numpy, shown in notebook 04) = compiled observer_rhs, with 8
     distinct gains and with one gain, also for estimates outside the sector box; with
     y = C xhat the derivative is f(xhat, u) of (25) exactly (multi-affine weights)."""
     jts, X, U = _bike_jts()
     ts = _bike_ts(X, U)
     rng = np.random.default_rng(7)
     for L in (rng.normal(size=(8, 4, 2)), rng.normal(size=(1, 4, 2))):
+        obs = dmvt.DMVTObserver(L, ts, BP, ic.C, 1e-3)
         for scale in (0.1, 2.0):                     # inside / outside the sector box
             xh, u, y = rng.normal(scale=scale, size=4), rng.normal(), rng.normal(size=2)
             out = np.empty(4)
             dmvt.observer_rhs(xh, u, y, BP.as_array(), ts.A, ts.B, ts.zmin, ts.zmax, L,
                               ic.C, out)
-            np.testing.assert_allclose(dmvt.observer_step(xh, u, y, ts, L, ic.C), out,
-                                       rtol=1e-12, atol=1e-12)
-            np.testing.assert_allclose(dmvt.observer_step(xh, u, ic.C @ xh, ts, L, ic.C),
+            np.testing.assert_allclose(obs.rhs(xh, u, y), out, rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(obs.rhs(xh, u, ic.C @ xh),
                                        b.rhs(xh[None], np.array([u]), BP)[0], rtol=1e-12,
                                        atol=1e-10)
+
+
+def _sampled_data(T=2.0, dt=1e-3, seed=0):
+    """Closed-loop bicycle run and noisy measurements of yaw and roll (sampled data)."""
+    t = np.arange(0.0, T, dt)
+    X, U = b.simulate(BP, t)
+    Y = X @ ic.C.T + 0.01 * np.random.default_rng(seed).standard_normal((len(t), 2))
+    return t, X, U[:, None], Y
+
+
+def test_run_readable_equals_compiled_run():
+    """The observer contract: looping the numpy step (RK4 of the numpy rhs) gives the compiled
+    run. Both evaluate the same expressions in a different summation order (tensordot vs
+    loops), ~1e-16 relative per stage; the error dynamics are exponentially stable, so the
+    difference stays at rounding level: rtol 1e-9 over 2000 steps is ~1e4 ulps of margin."""
+    jts, X, U = _bike_jts()
+    ts = _bike_ts(X, U)
+    t, _, u, y = _sampled_data()
+    x0 = np.array([0.1, -0.1, 0.1, 0.5])
+    L = np.random.default_rng(3).normal(size=(8, 4, 2))
+    d = dmvt.design_dmvt_observer(jts.vertices, ic.C, region=[halfplane(2), disk(10)])
+    for design in (d, L):
+        obs = dmvt.DMVTObserver(design, ts, BP, ic.C, 1e-3)
+        assert isinstance(obs, Observer) and isinstance(obs.design, Design)
+        tr, rd = obs.run(t, u, y, x0), run_readable(obs, t, u, y, x0)
+        np.testing.assert_allclose(rd.x, tr.x, rtol=1e-9, atol=1e-12)
+        assert tr.names == obs.state_names and tr.seconds > 0
+    assert obs.design.certificate is None and d.certificate.min_margin > 0
+    assert obs.output_names == ("beta_rad", "alpha_rad")
+
+
+def test_run_is_causal():
+    """Changing the samples after k leaves the estimate at k unchanged (run and step)."""
+    jts, X, U = _bike_jts()
+    obs = dmvt.DMVTObserver(np.ones((1, 4, 2)), _bike_ts(X, U), BP, ic.C, 1e-3)
+    t, _, u, y = _sampled_data(0.5)
+    k = 200
+    u2, y2 = u.copy(), y.copy()
+    u2[k + 1:] += 3.0
+    y2[k + 1:] -= 0.5
+    a, c = obs.run(t, u, y), obs.run(t, u2, y2)
+    np.testing.assert_array_equal(a.x[:k + 1], c.x[:k + 1])
+    assert not np.allclose(a.x[k + 2:], c.x[k + 2:])
+    z = obs.initial_state(t, u, y)
+    for j in range(1, k + 1):
+        z = obs.step(z, j, t, u2, y2)
+    np.testing.assert_allclose(z, a.x[k], rtol=1e-9, atol=1e-12)
+
+
+def test_sampled_data_dmvt_converges_to_cosimulation_at_first_order():
+    """DMVTObserver holds u_k, y_k over the sample; the co-simulation evaluates them in the
+    RK4 stages. ZOH is a first-order approximation: halving dt halves the difference."""
+    jts, X, U = _bike_jts()
+    ts = _bike_ts(X, U)
+    L = dmvt.design_dmvt_observer(jts.vertices, ic.C, r=1).L
+    xhat0 = np.array([0.1, -0.1, 0.1, 0.5])
+    diffs = []
+    for dt in (1e-3, 5e-4):
+        t = np.arange(0.0, 1.0, dt)
+        Xs, Xh, Us = dmvt.simulate_bicycle_observer(BP, t, ts, L, ic.C, xhat0=xhat0)
+        tr = dmvt.DMVTObserver(L, ts, BP, ic.C, dt).run(t, Us, Xs @ ic.C.T, xhat0)
+        assert tr.seconds > 0
+        diffs.append(np.abs(tr.x - Xh).max())
+    assert diffs[0] > 1e-4       # the two implementations do differ at dt = 1 ms
+    assert 1.6 < diffs[0] / diffs[1] < 2.4
+
+
+def test_observer_rejects_wrong_arguments():
+    jts, X, U = _bike_jts()
+    ts = _bike_ts(X, U)
+    L = np.zeros((1, 4, 2))
+    for args, msg in (((L[:, :, :1], ic.C), r"L must have shape \(r, 4, ny\) with r = 8 rules "
+                                             r"or 1, ny = 2, got \(1, 4, 1\)"),
+                      ((np.repeat(L, 3, axis=0), ic.C), r"L must .* got \(3, 4, 2\)"),
+                      ((L, ic.C[:, :3]), r"C must have shape \(ny, 4\)")):
+        with pytest.raises(ObserverArgumentError, match=msg):
+            dmvt.DMVTObserver(args[0], ts, BP, args[1], 1e-3)
+    for dt in (0.0, -1e-3, np.nan):
+        with pytest.raises(ObserverArgumentError, match="dt"):
+            dmvt.DMVTObserver(L, ts, BP, ic.C, dt)
+    obs = dmvt.DMVTObserver(L, ts, BP, ic.C, 1e-3)
+    t, _, u, y = _sampled_data(0.01)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 4"):
+        obs.run(t, u, y, np.zeros(3))
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 2\)"):
+        obs.run(t, u, y[:, :1])
+    with pytest.raises(ObserverArgumentError, match="dt = 0.001 s"):
+        obs.run(2 * t, u, y)
+    y[3, 1] = np.inf
+    with pytest.raises(ObserverArgumentError, match="y has a non-finite value at row 3"):
+        obs.run(t, u, y)
 
 
 def test_observer_input_errors():
@@ -244,19 +296,10 @@ def test_observer_input_errors():
         dmvt.simulate_bicycle_observer(BP, t, ts, np.zeros((3, 4, 2)), ic.C)
     with pytest.raises(ValueError, match="strictly increasing"):
         dmvt.simulate_bicycle_observer(BP, t[::-1], ts, np.zeros((1, 4, 2)), ic.C)
-    with pytest.raises(ValueError, match="4 columns"):
+    with pytest.raises(ObserverArgumentError, match=r"C must have shape \(ny, 4\)"):
         dmvt.simulate_bicycle_observer(BP, t, ts, np.zeros((1, 4, 2)), np.ones((2, 3)))
-
-
-def test_error_metrics_on_known_signals():
-    t = np.linspace(0, 10, 10001)
-    X = np.column_stack([np.exp(-t), -np.exp(-t) * np.cos(3 * t)] + [np.zeros_like(t)] * 2)
-    m = dmvt.error_metrics(t, X, np.zeros_like(X))
-    assert m["overshoot"][0] == 0.0
-    assert m["settling"][0] == pytest.approx(np.log(50), abs=2e-3)   # exp(-t) = 0.02
-    # -exp(-t) cos 3t: opposite-sign peak where tan 3t = -1/3, value exp(-t*) 3/sqrt(10)
-    ts = (np.pi - np.arctan(1 / 3)) / 3
-    assert m["overshoot"][1] == pytest.approx(np.exp(-ts) * 3 / np.sqrt(10), rel=1e-5)
+    with pytest.raises(ObserverArgumentError, match="xhat0"):
+        dmvt.simulate_bicycle_observer(BP, t, ts, np.zeros((1, 4, 2)), ic.C, xhat0=(0, 0, 0))
 
 
 def test_number_of_gains_does_not_change_feasibility_on_the_bicycle():
@@ -280,8 +323,10 @@ def test_sweep_brackets_and_bisection_bracket_errors():
           "feasible": np.array([[0, 1, 1], [0, 0, 1], [0, 0, 0], [1, 0, 1]], dtype=bool)}
     # a = 2 (never feasible) and a = 3 (not an upper interval) are skipped
     assert dmvt.sweep_brackets(sw) == [(0.0, 4.0, 6.0), (1.0, 6.0, 10.0)]
-    with pytest.raises(ValueError, match="R_hi > R_lo"):
+    with pytest.raises(ObserverArgumentError, match="R_hi > R_lo"):
         dmvt.min_feasible_radius(A_KNOWN[None], C_KNOWN, 0.5, 3.0, 2.0)
+    with pytest.raises(ObserverArgumentError, match="tol"):
+        dmvt.min_feasible_radius(A_KNOWN[None], C_KNOWN, 0.5, 2.0, 3.0, tol=-0.1)
     # without end checks the bracket is trusted: same answer as with them
     R = dmvt.min_feasible_radius(A_KNOWN[None], C_KNOWN, 0.5, 2.0, 3.0, tol=0.02,
                                  check_ends=False)

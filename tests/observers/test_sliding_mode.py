@@ -2,10 +2,13 @@
 
 import numpy as np
 import pytest
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.core.metrics import rmse
+from vehicle_observers.core.protocol import Design, Observer, run_readable
 from vehicle_observers.models import fullcar as fc
 from vehicle_observers.models import planar as pl
 from vehicle_observers.observers import sliding_mode as smo
+from vehicle_observers_papers.rabhi_2004.experiments import reaching_time
 
 P = pl.PlanarParams()
 DT = 5e-4
@@ -19,21 +22,28 @@ def straight_run(T=3.0, Tf=0.0):
     return t, U, Xs
 
 
+def force_run(t, Y, U, model, gains, x2_0=None, x3_0=None):
+    """ForceObserver at DT on (t, U, Y), initial velocities / wheel speeds ``x2_0``, ``x3_0``
+    (default the first measurement), zero forces."""
+    x0 = None if x2_0 is None else np.concatenate([x2_0, x3_0, np.zeros(4)])
+    return smo.ForceObserver(model, gains, DT).run(t, U, Y, x0)
+
+
 @pytest.mark.parametrize("j,e0", [(0, 1.0), (1, 0.5), (2, 0.1), (3, 5.0), (4, 5.0)])
 def test_reaching_time_known_answer(j, e0):
     """Free rolling (true forces 0), no force injection (k = 0, P = 0): the error obeys
     e' = -lambda sign(e) exactly, so the surface is reached at |e0|/lambda (to one step)
     and kept (chattering band lambda dt)."""
     t, U, Xs = straight_run(1.0)
-    Y = smo.measurements_from_truth(Xs)
+    Y = pl.measurements(Xs)
     g = smo.ForceObserverGains(k=(0.0,) * 4, P=(0.0,) * 8, mode=smo.SIGN)
     err0 = np.zeros(5)
     err0[j] = e0
-    r = smo.run_force_observer(t, Y, U, smo.ForceObserverModel.from_params(P), g,
-                               x2_0=Y[0, :3] + err0[:3], x3_0=Y[0, 3:] + err0[3:])
+    r = force_run(t, Y, U, smo.ForceObserverModel.from_params(P), g,
+                  x2_0=Y[0, :3] + err0[:3], x3_0=Y[0, 3:] + err0[3:])
     est = np.column_stack([r.x2, r.x3])
     lam = np.concatenate([g.lam2, g.lam3])[j]
-    tr = smo.reaching_time(t, Y[:, j] - est[:, j], lam * DT * 1.0001)
+    tr = reaching_time(t, Y[:, j] - est[:, j], lam * DT * 1.0001)
     assert tr == pytest.approx(e0 / lam, abs=1.01 * DT)
     assert np.abs(Y[t > tr, j] - est[t > tr, j]).max() <= lam * DT * 1.0001
 
@@ -43,9 +53,9 @@ def test_force_convergence_constant_torque():
     (T - J_f v'/r_f)/r_f (see test_planar); the observer (sat, adaptive) reaches it to
     0.5 % after 2 s, and the equivalent injection reproduces the force error."""
     t, U, Xs = straight_run(3.0, Tf=500.0)
-    Y = smo.measurements_from_truth(Xs)
-    r = smo.run_force_observer(t, Y, U, smo.ForceObserverModel.from_params(P),
-                               smo.ForceObserverGains(mode=smo.SAT))
+    Y = pl.measurements(Xs)
+    r = force_run(t, Y, U, smo.ForceObserverModel.from_params(P),
+                  smo.ForceObserverGains(mode=smo.SAT))
     acc = 500.0 / P.r_f / (P.m + P.J_f / P.r_f**2 + P.J_r / P.r_r**2)
     Fxf = (500.0 - P.J_f * acc / P.r_f) / P.r_f
     late = t > 2.0
@@ -59,9 +69,9 @@ def test_force_convergence_constant_torque():
 def manoeuvre_runs(errors=None, **gkw):
     man = pl.paper_manoeuvre(10.0, DT)
     Xs = pl.simulate(pl.free_rolling_state(man.v0, P), man.U, DT, P)
-    Y = smo.measurements_from_truth(Xs)
+    Y = pl.measurements(Xs)
     model = smo.ForceObserverModel.from_params(P, **(errors or {}))
-    r = smo.run_force_observer(man.t, Y, man.U, model, smo.ForceObserverGains(**gkw))
+    r = force_run(man.t, Y, man.U, model, smo.ForceObserverGains(**gkw))
     m = man.t > 1.0
     e = [rmse(r.x4[m, i], Xs[m, 8 + i]) for i in range(4)]
     ch = [np.std(np.diff(r.x4[m, i])) for i in range(4)]
@@ -102,18 +112,49 @@ def test_gain_condition_lhs_matches_kernel():
 
 def test_force_observer_bad_inputs():
     t, U, Xs = straight_run(0.1)
-    Y = smo.measurements_from_truth(Xs)
+    Y = pl.measurements(Xs)
     model = smo.ForceObserverModel.from_params(P)
-    with pytest.raises(ValueError, match=r"\(N, 5\)"):
-        smo.run_force_observer(t, Y[:, :4], U, model, smo.ForceObserverGains())
+    obs = smo.ForceObserver(model, smo.ForceObserverGains(), DT)
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 5\)"):
+        obs.run(t, U, Y[:, :4])
     Y2 = Y.copy()
     Y2[10, 0] = 0.1
-    with pytest.raises(ValueError, match=r"Y\[10, 0\]"):
-        smo.run_force_observer(t, Y2, U, model, smo.ForceObserverGains())
-    with pytest.raises(ValueError, match="mode"):
+    with pytest.raises(ObserverArgumentError, match=r"y\[10, 0\]"):
+        obs.run(t, U, Y2)
+    with pytest.raises(ObserverArgumentError, match="dt = 0.0005 s"):
+        obs.run(2 * t, U, Y)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 9"):
+        obs.run(t, U, Y, np.zeros(5))
+    with pytest.raises(ObserverArgumentError, match="mode"):
         smo.ForceObserverGains().with_(mode="twisting")
-    with pytest.raises(ValueError, match="unknown observer-model parameter"):
+    with pytest.raises(ObserverArgumentError, match="unknown observer-model parameter"):
         smo.ForceObserverModel.from_params(P, mass=0.1)
+    with pytest.raises(ObserverArgumentError, match="J_z"):
+        smo.ForceObserverModel.from_params(P, J_z=-1.5)
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        smo.ForceObserver(model, smo.ForceObserverGains(), 0.0)
+    with pytest.raises(ObserverArgumentError, match="theta0"):
+        smo.ForceObserver(model, smo.ForceObserverGains(), DT, theta0=np.zeros(3))
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(lam2=(4.0, -1.0, 3.0)), "lam2"), (dict(lam3=(500.0, 0.0)), "lam3"),
+    (dict(k=(40.0, 40.0, -1.0, 40.0)), "k"), (dict(phi2=(0.02, 0.0, 0.01)), "phi2"),
+    (dict(phi3=(-2.0, 2.0)), "phi3"), (dict(tau_f=0.0), "tau_f"), (dict(P=(5.0,) * 7), "P"),
+    (dict(theta_lo=(30.0,) * 8), "theta_lo < theta_hi"), (dict(lam2=(np.nan, 4, 3)), "lam2"),
+])
+def test_force_gains_validation(kw, name):
+    with pytest.raises(ObserverArgumentError, match=name):
+        smo.ForceObserverGains(**kw)
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(h11=-1.0), "h11"), (dict(phi1=0.0), "phi1"), (dict(phi2=-0.1), "phi2"),
+    (dict(tau_f=0.0), "tau_f"), (dict(tau_i=-1e-3), "tau_i"), (dict(phi22=np.inf), "phi22"),
+])
+def test_road_gains_validation(kw, name):
+    with pytest.raises(ObserverArgumentError, match=name):
+        smo.RoadObserverGains(**kw)
 
 
 # ---------------------------------------------------------------- road UIO ------------
@@ -124,8 +165,8 @@ def road_run(U, dt=2e-4, gains=None, p_obs=None, z_err0=0.0):
     t = np.arange(len(U)) * dt
     X = fc.simulate(U, dt, FP)
     Y = fc.outputs(X, None, None, FP)
-    r = smo.run_road_observer(t, Y, p_obs or FP, gains or smo.RoadObserverGains(),
-                              z0=Y[0, :4] + z_err0)
+    x0 = np.concatenate([Y[0, :4] + z_err0, np.zeros(4), Y[0, 7:10]])
+    r = smo.RoadObserver(p_obs or FP, gains or smo.RoadObserverGains(), dt).run(t, None, Y, x0)
     return t, X, r
 
 
@@ -156,9 +197,9 @@ def test_road_reaching_time():
     g = smo.RoadObserverGains(mode=smo.SIGN)
     _, _, r2 = road_run(U, dt, g, z_err0=5e-3)
     for i in range(4):
-        tr = smo.reaching_time(t, X[:, i] - r.z[:, i], g.h11 * dt * 1.0001)
+        tr = reaching_time(t, X[:, i] - r.z[:, i], g.h11 * dt * 1.0001)
         assert tr == pytest.approx(5e-3 / g.h11, abs=1.01 * dt)
-        tr2 = smo.reaching_time(t, X[:, i] - r2.z[:, i], 2 * g.h11 * dt)
+        tr2 = reaching_time(t, X[:, i] - r2.z[:, i], 2 * g.h11 * dt)
         assert 0 < tr2 <= 5e-3 / g.h11 + dt
 
 
@@ -180,31 +221,88 @@ def test_road_sinusoid_accuracy_and_sign_chattering():
 
 def test_road_observer_bad_inputs():
     t = np.arange(100) * 2e-4
-    with pytest.raises(ValueError, match=r"\(N, 10\)"):
-        smo.run_road_observer(t, np.zeros((100, 9)), FP, smo.RoadObserverGains())
-    with pytest.raises(ValueError, match="lpf"):
-        smo.run_road_observer(t, np.zeros((100, 10)), FP,
-                              smo.RoadObserverGains().with_(mode="lpf"))
+    obs = smo.RoadObserver(FP, smo.RoadObserverGains(), 2e-4)
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 10\)"):
+        obs.run(t, None, np.zeros((100, 9)))
+    with pytest.raises(ObserverArgumentError, match="lpf"):
+        smo.RoadObserver(FP, smo.RoadObserverGains().with_(mode="lpf"), 2e-4)
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        smo.RoadObserver(FP, smo.RoadObserverGains(), -2e-4)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 11"):
+        obs.run(t, None, np.zeros((100, 10)), np.zeros(4))
 
 
 @pytest.mark.parametrize("mode", ["sign", "sat", "lpf"])
-def test_readable_force_step_equals_compiled_loop(mode):
-    """force_observer_step (numpy, shown in notebook 05) and the compiled loop give the same
-    trajectory, all 8 theta entries adapted, from wrong initial states."""
+def test_run_readable_equals_compiled_force_observer(mode):
+    """The observer contract for (10) + (20)-(22): the numpy step (shown in notebook 05)
+    looped equals the compiled run, all 8 theta entries adapted, from wrong initial states;
+    theta and the filtered equivalent injection of the internal state equal the run's
+    extras. The two differ in the order of the 5x4 least-squares products only (numpy
+    BLAS vs numba loops): ~1e-16 relative per step; the sign terms never sit at a
+    rounding-level error here, so the trajectories agree to 1e-10 relative over 400 steps
+    (a sign flip would move a force by lambda dt-scaled amounts, ~1e-3 relative)."""
     t, U, Xs = straight_run(0.2, Tf=200.0)
     U[:, 0] = 0.02 * np.sin(2 * np.pi * t)
     Xs = pl.simulate(pl.free_rolling_state(15.0, P), U, DT, P)
-    Y = smo.measurements_from_truth(Xs)
+    Y = pl.measurements(Xs)
     model = smo.ForceObserverModel.from_params(P)
     g = smo.ForceObserverGains(P=(5.0,) * 8, mode=smo.MODES[mode])
-    x2_0, x3_0 = Y[0, :3] + [1.0, 0.5, 0.1], Y[0, 3:] + 5.0
-    r = smo.run_force_observer(t, Y, U, model, g, x2_0=x2_0, x3_0=x3_0)
-    st = {"x2": x2_0, "x3": x3_0, "x4": np.zeros(4), "th": model.theta0(), "e4f": np.zeros(4)}
-    for k in range(len(t) - 1):
-        st = smo.force_observer_step(st, Y[k], U[k], model, g, DT)
-    np.testing.assert_allclose(st["x4"], r.x4[-1], rtol=1e-10, atol=1e-8)
-    np.testing.assert_allclose(st["th"], r.theta[-1], rtol=1e-10, atol=1e-10)
-    np.testing.assert_allclose(st["x2"], r.x2[-1], rtol=1e-12, atol=1e-12)
+    obs = smo.ForceObserver(model, g, DT)
+    assert isinstance(obs, Observer) and isinstance(obs.design, Design)
+    assert obs.design.certificate is None
+    x0 = np.concatenate([Y[0, :3] + [1.0, 0.5, 0.1], Y[0, 3:] + 5.0, np.zeros(4)])
+    r, rd = obs.run(t, U, Y, x0), run_readable(obs, t, U, Y, x0)
+    np.testing.assert_allclose(rd.x, r.x, rtol=1e-10, atol=1e-8)
+    z = obs.initial_state(t, U, Y, x0)
+    for k in range(1, len(t)):
+        z = obs.step(z, k, t, U, Y)
+        np.testing.assert_allclose(z[smo.Z_TH:smo.Z_E4F], r.theta[k], rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(z[smo.Z_E4F:], r.x4_err_eq[k - 1], rtol=1e-9, atol=1e-8)
+    # paper-named properties are views of the estimate columns
+    assert np.shares_memory(r.x4, r.x) and r.x4.shape == (len(t), 4)
+    np.testing.assert_array_equal(r.x2[:, 0], r["vx_mps"])
+    np.testing.assert_array_equal(r.x3[:, 1], r["omega_r_radps"])
+
+
+def test_force_observer_is_causal():
+    """Changing the samples after k leaves the estimate (and theta) at k unchanged."""
+    t, U, Xs = straight_run(0.2, Tf=200.0)
+    Y = pl.measurements(Xs)
+    obs = smo.ForceObserver(smo.ForceObserverModel.from_params(P), smo.ForceObserverGains(), DT)
+    k = 150
+    Y2, U2 = Y.copy(), U.copy()
+    Y2[k + 1:, :2] += 0.3
+    U2[k + 1:, 1] += 300.0
+    a, b = obs.run(t, U, Y), obs.run(t, U2, Y2)
+    np.testing.assert_array_equal(a.x[:k + 1], b.x[:k + 1])
+    np.testing.assert_array_equal(a.theta[:k + 1], b.theta[:k + 1])
+    assert not np.array_equal(a.x[k + 2:], b.x[k + 2:])
+
+
+@pytest.mark.parametrize("mode", ["sign", "sat"])
+def test_run_readable_equals_compiled_road_observer(mode):
+    """The observer contract for the road UIO: the numpy step looped equals the compiled
+    run (estimate: wheel displacements, road, body rates), from a 5 mm initial error on an
+    ISO class C road. Different product order of the 4x3 / 3x4 couplings only (rounding);
+    sat mode is smooth, and in sign mode the switching arguments stay far above rounding
+    (the stage-1 error chatters at h11 dt = 0.4 mm): 1e-9 relative over 1500 steps."""
+    from vehicle_observers.data import road
+
+    dt = 2e-4
+    t = np.arange(1500) * dt
+    U = road.iso8608_road("C", 20.0, seed=2).wheel_inputs(t, 10.0, FP.a + FP.b)
+    X = fc.simulate(U, dt, FP)
+    Y = fc.outputs(X, None, None, FP)
+    obs = smo.RoadObserver(FP.scaled(m_u=0.1), smo.RoadObserverGains(mode=mode), dt)
+    x0 = np.concatenate([Y[0, :4] + 5e-3, np.zeros(4), Y[0, 7:10]])
+    r, rd = obs.run(t, None, Y, x0), run_readable(obs, t, None, Y, x0)
+    np.testing.assert_allclose(rd.x, r.x, rtol=1e-9, atol=1e-12)
+    assert r.U.shape == r.v.shape == r.zeta.shape == (len(t), 4) and r.x22.shape == (len(t), 3)
+    # causal: samples after k do not reach the estimate at k
+    k = 700
+    Y2 = Y.copy()
+    Y2[k + 1:] += 1e-3
+    np.testing.assert_array_equal(obs.run(t, None, Y2, x0).x[:k + 1], r.x[:k + 1])
 
 
 def test_paper_output_design_loses_exactly_the_warp():
@@ -225,28 +323,36 @@ def test_paper_output_design_loses_exactly_the_warp():
     for i in range(4):
         di = smo.paper_output_design(p, deflection_wheel=i)
         assert di.V.shape == (11, 0) and di.margin > 0
-    with pytest.raises(ValueError, match="deflection_wheel"):
+    with pytest.raises(ObserverArgumentError, match="deflection_wheel"):
         smo.paper_output_design(p, deflection_wheel=4)
+    for kw in (dict(q=0.0), dict(r=-1e-6), dict(tol=np.nan)):
+        with pytest.raises(ObserverArgumentError, match=next(iter(kw))):
+            smo.paper_output_design(p, **kw)
 
 
-def test_readable_paper_output_step_equals_run():
-    """paper_output_step (numpy) repeated equals run_paper_output_observer's compiled loop."""
+def test_run_readable_equals_compiled_paper_output_observer():
+    """The observer contract for the observer on the paper's outputs: the numpy step
+    (explicit Euler of A, B, L, V; (36)-(37)) looped equals the compiled run (F = I + dt (A
+    - LC - VV'/tau_w), G = dt [B, L]: the same map, products grouped differently, rounding
+    only: 1e-10 relative over 200 steps). A missing deflection column is a shape error."""
     p = fc.FullCarParams()
     d = smo.paper_output_design(p, deflection_wheel=3)
     rng = np.random.default_rng(0)
     N = 200
     t = np.arange(N) * 2e-4
-    Yp = rng.normal(size=(N, 10)) * 1e-2
-    defl = rng.normal(size=N) * 1e-3
-    r = smo.run_paper_output_observer(t, Yp, p, d, deflection=defl)
-    xo = np.concatenate([np.zeros(8), Yp[0, 3:6]])
-    for k in range(N - 1):
-        y = np.concatenate([Yp[k, 3:6], [p.S[3] @ Yp[k, 0:3] - defl[k]]])
-        xo = smo.paper_output_step(xo, np.concatenate([Yp[k, 6:10], Yp[k, 0:3]]), y, d, 2e-4)
-    np.testing.assert_allclose(xo[0:4], r.z[-1], rtol=1e-10, atol=1e-14)
-    np.testing.assert_allclose(xo[4:8], r.v[-1], rtol=1e-10, atol=1e-14)
-    with pytest.raises(ValueError, match="deflection"):
-        smo.run_paper_output_observer(t, Yp, p, d)
+    y = np.column_stack([rng.normal(size=(N, 10)) * 1e-2, rng.normal(size=N) * 1e-3])
+    obs = smo.PaperOutputObserver(p, d, 2e-4)
+    assert obs.output_names[-1] == "defl_fr_m" and obs.design.certificate is None
+    r, rd = obs.run(t, None, y), run_readable(obs, t, None, y)
+    np.testing.assert_allclose(rd.x, r.x, rtol=1e-10, atol=1e-14)
+    k = 100
+    y2 = y.copy()
+    y2[k + 1:] += 1.0
+    np.testing.assert_array_equal(obs.run(t, None, y2).x[:k + 1], r.x[:k + 1])
+    with pytest.raises(ObserverArgumentError, match=r"y must be \(N, 11\)"):
+        obs.run(t, None, y[:, :10])
+    with pytest.raises(ObserverArgumentError, match="design must be a PaperOutputDesign"):
+        smo.PaperOutputObserver(p, smo.RoadObserverGains(), 2e-4)
 
 
 def test_paper_output_observer_road_known_answer():
@@ -261,8 +367,8 @@ def test_paper_output_observer_road_known_answer():
     Yp = np.tile(np.concatenate([q[4:7], np.zeros(3), np.zeros(4)]), (N, 1))
     d = smo.paper_output_design(p, deflection_wheel=0)
     defl = np.full(N, p.S[0] @ q[4:7] - q[0])
-    r = smo.run_paper_output_observer(t, Yp, p, d, x0=np.concatenate([q[0:4], np.zeros(7)]),
-                                      deflection=defl)
+    x0 = np.concatenate([q[0:4], np.zeros(11)])
+    r = smo.PaperOutputObserver(p, d, 2e-4).run(t, None, np.column_stack([Yp, defl]), x0)
     np.testing.assert_allclose(r.z[-1], q[0:4], atol=1e-12)
     np.testing.assert_allclose(r.U[-1], U0, rtol=1e-9, atol=1e-12)
 

@@ -7,9 +7,12 @@ import dataclasses
 import numpy as np
 import pytest
 from scipy.linalg import expm
-from vehicle_observers.core.errors import InfeasibleDesign
+from vehicle_observers.core.errors import InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.core.protocol import Design, Observer, run_readable
+from vehicle_observers.models import uncertain_lateral as ul
 from vehicle_observers.observers import uio
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
+from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +57,8 @@ class _Fuzzy:
 
 
 def test_lm_recovers_known_fuzzy_parameters():
-    true = uio.FuzzyTyres(a=0.12, b=1.3, c=0.004, C_f=(4.0e4, 1.5e4), C_r=(5.0e4, 1.0e4))
-    fit = uio.fit_fuzzy_forces(_Fuzzy(true, True), _Fuzzy(true, False), np.radians(10), 301,
+    true = ul.FuzzyTyres(a=0.12, b=1.3, c=0.004, C_f=(4.0e4, 1.5e4), C_r=(5.0e4, 1.0e4))
+    fit = ul.fit_fuzzy_forces(_Fuzzy(true, True), _Fuzzy(true, False), np.radians(10), 301,
                                x0=(0.08, 1.0, 0.0, 3.5e4, 2.0e4, 4.5e4, 2.0e4))
     np.testing.assert_allclose(fit.as_array(), true.as_array(), rtol=1e-6, atol=1e-9)
     assert fit.rms_rel < 1e-10
@@ -73,8 +76,8 @@ def test_fuzzy_forces_fit_pacejka(model):
 
 def test_gbell_derivative_matches_finite_difference():
     a = np.linspace(-0.15, 0.15, 41) + 1e-3
-    d = uio.gbell_derivative(a, 0.1, 1.2, 0.01)
-    fd = (uio.gbell(a + 1e-7, 0.1, 1.2, 0.01) - uio.gbell(a - 1e-7, 0.1, 1.2, 0.01)) / 2e-7
+    d = ul.gbell_derivative(a, 0.1, 1.2, 0.01)
+    fd = (ul.gbell(a + 1e-7, 0.1, 1.2, 0.01) - ul.gbell(a - 1e-7, 0.1, 1.2, 0.01)) / 2e-7
     np.testing.assert_allclose(d, fd, rtol=1e-5, atol=1e-6)
 
 
@@ -155,8 +158,8 @@ def test_phi_bound_formula_and_run(model):
     t = np.arange(0, 6, 1e-3)
     w = 2 * np.pi * 1.0
     delta = 0.3 / w * np.sin(w * t)          # |delta'| = 0.3 rad/s at its peak
-    X = uio.simulate_truth(model, [0, 0], delta, 0.0, np.sin(3 * t), 1e-3)
-    h = model.tyres.memberships(uio.slip_front(model, X, delta))
+    X = ul.simulate_truth(model, [0, 0], delta, 0.0, np.sin(3 * t), 1e-3)
+    h = model.tyres.memberships(ul.slip_front(model, X, delta))
     assert np.abs(np.gradient(h[:, 0], 1e-3)).max() < p1["phi"]
     with pytest.raises(ValueError, match="input bounds"):
         uio.phi_bound(model, -1.0, 0.05, P.tire_f.D, P.tire_r.D)
@@ -218,8 +221,16 @@ def test_remark1_construction(full):
 
 
 def test_design_errors(model, st):
-    with pytest.raises(ValueError, match="mu > 0"):
+    with pytest.raises(ObserverArgumentError, match="mu > 0"):
         uio.design_relaxed(model, 1.0, 10.0, (0.0,), st)
+    with pytest.raises(ObserverArgumentError, match="phi"):
+        uio.design_relaxed(model, 1.0, -10.0, (1e-3,), st)
+    with pytest.raises(ObserverArgumentError, match="alpha"):
+        uio.design_quadratic(model, -0.5, st)
+    with pytest.raises(ObserverArgumentError, match="radius"):
+        uio.design_quadratic(model, 0.5, st, radius=0.0)
+    with pytest.raises(ObserverArgumentError, match="eps"):
+        uio.design_relaxed(model, 0.5, 10.0, (1e-3,), st, eps=-1e-6)
     with pytest.raises(ValueError, match="two rules"):
         uio.relaxed_builders({"TA": np.zeros((3, 3, 3)), "Cbar": np.zeros((2, 3))}, 0, 0, 1)
     # alpha beyond the disk: no certified solution
@@ -238,7 +249,7 @@ def test_design_errors(model, st):
 
 
 # ------------------------------------------------------------------ simulation ----------
-def test_observer_kernel_matches_matrix_exponential(designs):
+def test_observer_kernel_matches_matrix_exponential(model, designs):
     """One rule, constant u and y: (20) is LTI; RK4 at 1 ms vs exact ZOH propagation."""
     g = designs[1]
     n = 400
@@ -246,7 +257,8 @@ def test_observer_kernel_matches_matrix_exponential(designs):
     u = np.full(n, 0.02)
     y = np.tile([0.1, 0.08], (n, 1))
     h = np.tile([1.0, 0.0], (n, 1))
-    Xh = uio.run_observer(g, u, y, h, dt, X0_hat=np.array([0.2, -0.1, 0.01]))
+    obs = uio.UIObserver(g, model, dt, premise="measured")
+    Xh = obs.run(np.arange(n) * dt, np.column_stack([u, h]), y, np.array([0.2, -0.1, 0.01])).x
     ys = y[0] / g.R
     z = np.array([0.2, -0.1, 0.01]) / g.S - g.H @ ys
     b = g.G[0][:, 0] * u[0] + g.L[0] @ ys
@@ -267,39 +279,62 @@ def test_observer_kernel_matches_matrix_exponential(designs):
     np.testing.assert_allclose(Xh, ref["exact"], rtol=0, atol=1e-6)
 
 
-def test_readable_step_equals_compiled_kernel(model, designs):
-    """The readable numpy RK4 step (shown in the notebook) with memberships of the estimated
-    slip angle reproduces the compiled estimated-premise loop."""
+@pytest.mark.parametrize("premise", ["estimated", "measured"])
+def test_run_readable_equals_compiled_run(model, designs, premise):
+    """The observer contract: the readable numpy RK4 step (shown in the notebook), with the
+    memberships of the estimated slip angle or measured ones, looped equals the compiled
+    loop, memberships included. The same expressions in another summation order (numpy
+    sum of rule terms vs per-entry loops): rounding only; the observer poles are stable
+    (|lambda| dt < 0.2), so 1e-10 relative over 200 steps is ~1e6 ulps of margin."""
     g = designs[1]
     n = 200
     rng = np.random.default_rng(1)
+    t = np.arange(n) * 1e-3
     delta = 0.03 * np.sin(np.arange(n) * 0.01)
     y = rng.normal(0, 0.01, (n, 2))
-    Xh, h = uio.run_observer_estimated(g, model.tyres, model.l_f, model.vx, delta, y, 1e-3,
-                                       X0_hat=np.array([0.1, 0.0, 0.0]))
-    ys = y / g.R
-    z = np.array([0.1, 0.0, 0.0]) / g.S - g.H @ ys[0]
+    h1 = 0.5 + 0.4 * np.sin(np.arange(n) * 0.02)
+    u = delta if premise == "estimated" else np.column_stack([delta, h1, 1 - h1])
+    obs = uio.UIObserver(g, model, 1e-3, premise=premise)
+    assert isinstance(obs, Observer) and isinstance(obs.design, Design)
+    assert obs.design.certificate.min_margin > 0 and obs.output_names == ("y1", "y2")
+    x0 = np.array([0.1, 0.0, 0.0])
+    tr, rd = obs.run(t, u, y, x0), run_readable(obs, t, u, y, x0)
+    np.testing.assert_allclose(rd.x, tr.x, rtol=1e-10, atol=1e-13)
+    uu = u[:, None] if u.ndim == 1 else u
+    z = obs.initial_state(t, uu, y, x0)
     for k in range(n):
-        Xs = (z + g.H @ ys[k]) * g.S
-        af = delta[k] + Xs[2] - (Xs[0] + model.l_f * Xs[1]) / model.vx
-        hk = model.tyres.memberships(af)
-        np.testing.assert_allclose(h[k], hk, rtol=1e-12, atol=1e-14)
-        z, xs_k = uio.observer_step_readable(z, delta[k], ys[k], hk, g, 1e-3)
-        np.testing.assert_allclose(xs_k * g.S, Xh[k], rtol=1e-10, atol=1e-13)
+        if k:
+            z = obs.step(z, k, t, uu, y)
+        hk = obs.memberships(z[3:], delta[k]) if premise == "estimated" else uu[k, 1:]
+        np.testing.assert_allclose(tr.h[k], hk, rtol=1e-12, atol=1e-14)
+
+
+def test_run_is_causal(model, designs):
+    """Changing the samples after k leaves the estimate at k unchanged: the estimate at k is
+    z_k + H y_k (it reads y_k, never y_{k+1})."""
+    sc = sn.make_scenario(model, 1.0, 1e-3, 0.5, P.x0_true, seed=4)
+    obs = uio.UIObserver(designs[1], model, 1e-3)
+    k = 400
+    d2, y2 = sc["delta"].copy(), sc["y"].copy()
+    d2[k + 1:] += 0.05
+    y2[k + 1:] += 0.1
+    a, c = obs.run(sc["t"], sc["delta"], sc["y"]), obs.run(sc["t"], d2, y2)
+    np.testing.assert_array_equal(a.x[:k + 1], c.x[:k + 1])
+    assert not np.allclose(a.x[k + 1:], c.x[k + 1:])
 
 
 def test_observer_never_reads_the_truth(model, designs):
     """The estimated-premise observer reads only delta, y and dt: replacing the true state,
     fault, slip angle and memberships of the scenario by NaN leaves its estimate unchanged."""
-    sc = uio.make_scenario(model, 2.0, 1e-3, 1.5, P.x0_true, seed=2)
-    Xh, h = uio.run_observer_estimated(designs[1], model.tyres, model.l_f, model.vx,
-                                       sc["delta"], sc["y"], sc["dt"])
+    sc = sn.make_scenario(model, 2.0, 1e-3, 1.5, P.x0_true, seed=2)
+    obs = uio.UIObserver(designs[1], model, sc["dt"])
+    Xh = obs.run(sc["t"], sc["delta"], sc["y"]).x
     blind = {k: sc[k] for k in ("delta", "y", "dt")}
-    Xb, hb = uio.run_observer_estimated(designs[1], model.tyres, model.l_f, model.vx,
-                                        blind["delta"], blind["y"], blind["dt"])
+    t = np.arange(len(blind["delta"])) * blind["dt"]
+    Xb = uio.UIObserver(designs[1], model, blind["dt"]).run(t, blind["delta"], blind["y"]).x
     np.testing.assert_array_equal(Xh, Xb)
     poisoned = {**sc, **{k: np.full_like(sc[k], np.nan) for k in ("h", "alpha_f", "hdot")}}
-    ev = uio.evaluate(designs[1], poisoned, model)
+    ev = sn.evaluate(designs[1], poisoned, model)
     np.testing.assert_array_equal(ev["Xhat"], Xh)
     assert np.all(np.isfinite(ev["h_used"])) and np.abs(ev["h_used"] - sc["h"]).max() > 0
 
@@ -312,10 +347,10 @@ def test_fault_estimation_known_case_uncertainty_decoupled(designs):
     errs = []
     for rho in (0.0, 0.2):
         m = P.build_model(rho)
-        sc = uio.make_scenario(m, 5.0, 1e-3, 2.0, P.x0_true, seed=3, noise=False,
+        sc = sn.make_scenario(m, 5.0, 1e-3, 2.0, P.x0_true, seed=3, noise=False,
                                fault_kw={"amp": 0.0})
         for g in designs:
-            ev = uio.evaluate(g, sc, m)
+            ev = sn.evaluate(g, sc, m)
             late = sc["t"] > 4.0
             e = np.abs(ev["err"][late]).max(axis=0)
             # v_y error 0.3 m/s at t = 0, unmeasured: below 1 % of it 2 s after the fault
@@ -332,22 +367,35 @@ def test_fault_delay_metric():
     f = np.where(t >= 2, 1.0, 0.0)
     fh = np.where(t >= 2, 1.0 - np.exp(-(t - 2) / 0.5), 0.0)
     # |fh - f| = exp(-(t-2)/0.5) <= 0.1 from t - 2 = 0.5 ln 10
-    assert uio.fault_delay(t, fh, f, 2.0) == pytest.approx(0.5 * np.log(10), abs=0.011)
-    assert np.isnan(uio.fault_delay(t, np.zeros_like(t), f, 2.0))
+    assert sn.fault_delay(t, fh, f, 2.0) == pytest.approx(0.5 * np.log(10), abs=0.011)
+    assert np.isnan(sn.fault_delay(t, np.zeros_like(t), f, 2.0))
 
 
 def test_simulation_input_errors(model, designs):
     with pytest.raises(ValueError, match=r"\|F\| <= 1"):
-        uio.simulate_truth(model, [0, 0], np.zeros(10), 0.0, np.full(10, 1.5), 1e-3)
+        ul.simulate_truth(model, [0, 0], np.zeros(10), 0.0, np.full(10, 1.5), 1e-3)
     with pytest.raises(ValueError, match="delta must be finite"):
-        uio.simulate_truth(model, [0, 0], np.array([0.0, np.nan]), 0.0, 0.0, 1e-3)
+        ul.simulate_truth(model, [0, 0], np.array([0.0, np.nan]), 0.0, 0.0, 1e-3)
     g = designs[0]
-    with pytest.raises(ValueError, match="y must be"):
-        uio.run_observer(g, np.zeros(5), np.zeros((5, 3)), np.tile([1.0, 0.0], (5, 1)), 1e-3)
-    with pytest.raises(ValueError, match="sum to 1"):
-        uio.run_observer(g, np.zeros(5), np.zeros((5, 2)), np.ones((5, 2)), 1e-3)
-    with pytest.raises(ValueError, match="too fast"):
-        uio.run_observer(g, np.zeros(5), np.zeros((5, 2)), np.tile([1.0, 0.0], (5, 1)), 0.1)
+    obs = uio.UIObserver(g, model, 1e-3, premise="measured")
+    t = np.arange(5) * 1e-3
+    u = np.column_stack([np.zeros(5), np.tile([1.0, 0.0], (5, 1))])
+    with pytest.raises(ObserverArgumentError, match="y must be"):
+        obs.run(t, u, np.zeros((5, 3)))
+    with pytest.raises(ObserverArgumentError, match="sum to 1"):
+        obs.run(t, np.column_stack([np.zeros(5), np.ones((5, 2))]), np.zeros((5, 2)))
+    with pytest.raises(ObserverArgumentError, match="too fast"):
+        uio.UIObserver(g, model, 0.1)
+    with pytest.raises(ObserverArgumentError, match="premise"):
+        uio.UIObserver(g, model, 1e-3, premise="true")
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        uio.UIObserver(g, model, 0.0)
+    with pytest.raises(ObserverArgumentError, match="x0 must be 3"):
+        obs.run(t, u, np.zeros((5, 2)), np.zeros(2))
+    with pytest.raises(ObserverArgumentError, match="substeps"):
+        ul.simulate_truth(model, [0, 0], np.zeros(10), 0.0, 0.0, 1e-3, substeps=0)
+    with pytest.raises(ObserverArgumentError, match="dt"):
+        ul.simulate_truth(model, [0, 0], np.zeros(10), 0.0, 0.0, -1e-3)
 
 
 def test_undetectable_fault_raises(full):
@@ -372,9 +420,9 @@ def test_truth_model_is_the_uncertain_ts_form(variant):
     for _ in range(5):
         x = rng.normal(0, [0.5, 0.2])
         d, f, F = rng.normal(0, 0.03), rng.normal(0, 0.01), rng.uniform(-1, 1)
-        X = uio.simulate_truth(model, x, np.full(2, d), f, F, dt, substeps=1)
+        X = ul.simulate_truth(model, x, np.full(2, d), f, F, dt, substeps=1)
         fd = (X[1] - X[0]) / dt
-        h = model.tyres.memberships(uio.slip_front(model, x[None, :], d, f))[0]
+        h = model.tyres.memberships(ul.slip_front(model, x[None, :], d, f))[0]
         u = d + f
         ts = sum(h[i] * (model.A[i] @ x + model.B[i][:, 0] * u
                          + model.M[:, 0] * F * (Na[i] @ x + Nb[i][:, 0] * u)[0])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from vehicle_observers.models import bicycle as b
-from vehicle_observers.observers import dmvt
+from vehicle_observers.models.ts import jacobian_ts_from_bounds, jacobian_ts_from_samples
 from vehicle_observers_papers.ichalal_2011 import constants as ic
 
 
@@ -30,7 +30,7 @@ def test_printed_weights_pick_the_printed_vertices_in_order():
     A = np.array(ic.printed_jacobian_vertices())
     for k, Ak in enumerate(A):
         np.testing.assert_allclose(_printed_h(Ak[3, 1], Ak[3, 2]), np.eye(4)[k], atol=1e-12)
-    jts = dmvt.jacobian_ts_from_bounds(A[0], {(3, 1): ic.xi1_bounds_printed,
+    jts = jacobian_ts_from_bounds(A[0], {(3, 1): ic.xi1_bounds_printed,
                                               (3, 2): ic.xi2_bounds_printed})
     np.testing.assert_allclose(jts.vertices, A, atol=0)
     rng = np.random.default_rng(3)
@@ -88,13 +88,13 @@ def test_derived_bounds_and_literal_33_range_do_not_give_the_printed_ones():
     X, U = b.simulate(bp, t)
     Xs, Us = _closed_loop_scipy(bp, t)
     np.testing.assert_allclose(X, Xs, atol=1e-7)
-    jts = dmvt.jacobian_ts_from_samples(b.jacobian(X, U, bp), names=["xi1", "xi2"])
+    jts = jacobian_ts_from_samples(b.jacobian(X, U, bp), names=["xi1", "xi2"])
     (lo1, lo2), (hi1, hi2) = jts.lo, jts.hi
     # xi2 starts at g/p (x = 0); xi1 upper end v^2/p (x3 = 0) plus the transient term
     assert lo2 == pytest.approx(bp.g / bp.p, abs=1e-12)
     assert bp.v**2 / bp.p <= hi1 <= ic.xi1_bounds_printed[1]
     assert lo1 < ic.xi1_bounds_printed[0] - 10 and hi2 > ic.xi2_bounds_printed[1] + 10
-    pr, prs = (dmvt.printed_jacobian_entries(x, u)[:, 1] for x, u in ((X, U), (Xs, Us)))
+    pr, prs = (ic.printed_jacobian_entries(x, u)[:, 1] for x, u in ((X, U), (Xs, Us)))
     assert abs(pr.min() - prs.min()) < 1e-6 and abs(pr.max() - prs.max()) < 1e-6
     assert ic.xi2_bounds_printed[0] - pr.min() > 1.5
     assert ic.xi2_bounds_printed[1] - pr.max() > 1.5

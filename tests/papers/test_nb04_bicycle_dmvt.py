@@ -7,6 +7,7 @@ import pytest
 from matplotlib.figure import Figure
 from vehicle_observers.baselines import dmvt_ekf as bb
 from vehicle_observers.core.metrics import overshoot
+from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.models import bicycle as b
 from vehicle_observers.observers import dmvt
 from vehicle_observers.results.reporting import Report
@@ -16,6 +17,7 @@ from vehicle_observers_papers.ichalal_2011 import constants as ic
 matplotlib.use("Agg")
 BP, C = ic.params, ic.C
 A_REG, R_REG = 2.0, 10.0
+XHAT0 = np.array([0.1, -0.1, 0.1, 0.5])
 
 
 @pytest.fixture(scope="module")
@@ -117,19 +119,19 @@ def test_filter_baseline_short_run(setup):
     assert set(cmp) == {"clean", "noisy"} and set(cmp["clean"]) == {"noreg", "reg", "ekf", "ukf"}
     r = cmp["noisy"]["ekf"]
     np.testing.assert_allclose(m["cmp_noisy_rmse_ekf"][0],
-                               np.sqrt(np.mean((Xk - r.xhat) ** 2, axis=0)), rtol=1e-12)
-    assert m["cmp_noisy_rmse_ekf"][2] == f"{r.name}, x1..x4"
+                               np.sqrt(np.mean((Xk - r.x) ** 2, axis=0)), rtol=1e-12)
+    assert m["cmp_noisy_rmse_ekf"][2] == f"{r.estimator}, x1..x4"
     assert np.all(np.diag(base["Q"]) >= 1e-12)
     assert 0 <= m["ekf_rmse_below_dmvt_share"][0] <= 1 and m["ukf_spd_repairs"][0] == 0
     # EKF and UKF differ only by the second-order terms over the (small) posterior spread:
     # far below their estimation error; measured <= 0.54 % of the EKF's late RMSE per state
     late = tk >= 0.1
     for sc in cmp:
-        d = np.abs(cmp[sc]["ekf"].xhat - cmp[sc]["ukf"].xhat)[late].max(axis=0)
-        assert np.all(d < 0.01 * cmp[sc]["ekf"].rmse_late), (sc, d)
+        d = np.abs(cmp[sc]["ekf"].x - cmp[sc]["ukf"].x)[late].max(axis=0)
+        assert np.all(d < 0.01 * cmp[sc]["ekf"].info["rmse_late"]), (sc, d)
         assert np.all(d <= m["ekf_ukf_max_abs_diff"][0])
     # the noise (drawn from the seed) reaches the estimates: clean and noisy runs differ
-    assert not np.array_equal(cmp["clean"]["ekf"].xhat, r.xhat)
+    assert not np.array_equal(cmp["clean"]["ekf"].x, r.x)
     # wall clock only in the timings, never among the metrics
     assert not any("us_per_step" in k or "cost" in k for k in m)
     assert base["timings"]["cost_ratio_ekf_dmvt"][0] > 0
@@ -141,8 +143,8 @@ def test_filter_baseline_short_run(setup):
 def test_win_share_known_answer():
     """2 runs x 2 windows x 4 states = 16 cases; the EKF wins exactly the cases built so."""
     def res(rmse, late):
-        return bb.EstimatorResult("e", None, np.array(rmse, float), np.array(late, float),
-                                  None, None, 0.0)
+        return Trajectory(np.arange(2.0), np.zeros((2, 4)), ("a", "b", "c", "d"), estimator="e",
+                          info={"rmse": np.array(rmse, float), "rmse_late": np.array(late, float)})
     run = {"ekf": res([1, 1, 1, 1], [1, 1, 1, 1]),
            "noreg": res([2, 0.5, 2, 1], [2, 2, 2, 2]),
            "reg": res([2, 2, 0.5, 2], [2, 2, 2, 0.5])}
@@ -268,7 +270,7 @@ def test_bounds_variants_against_direct_computation(setup):
     var = ds.bounds_variants(BP, t, X, U, t_after=1.0)
     m = var["metrics"]
     assert var["names2"][:2] == ["exact", "(33) literal"] and len(var["names2"]) == 6
-    pr = dmvt.printed_jacobian_entries(X, U)[:, 1]
+    pr = ic.printed_jacobian_entries(X, U)[:, 1]
     np.testing.assert_allclose(m["xi2_variant_bounds"][0][1], [pr.min(), pr.max()])
     late = pr[t >= 1.0]
     np.testing.assert_allclose(m["xi2_variant_bounds"][0][4], [late.min(), late.max()])
@@ -389,3 +391,63 @@ def test_region_explorer_static_and_interactive(setup, capsys, monkeypatch):
     sliders["a [1/s]"].value = 8.0
     sliders["R [1/s]"].value = 3.0
     assert "no certified design" in capsys.readouterr().out
+
+
+def test_error_metrics_on_known_signals():
+    t = np.linspace(0, 10, 10001)
+    X = np.column_stack([np.exp(-t), -np.exp(-t) * np.cos(3 * t)] + [np.zeros_like(t)] * 2)
+    m = ds.error_metrics(t, X, np.zeros_like(X))
+    assert m["overshoot"][0] == 0.0
+    assert m["settling"][0] == pytest.approx(np.log(50), abs=2e-3)   # exp(-t) = 0.02
+    # -exp(-t) cos 3t: opposite-sign peak where tan 3t = -1/3, value exp(-t*) 3/sqrt(10)
+    ts = (np.pi - np.arctan(1 / 3)) / 3
+    assert m["overshoot"][1] == pytest.approx(np.exp(-ts) * 3 / np.sqrt(10), rel=1e-5)
+
+
+def test_compare_estimators_results_and_prior_error_metrics(setup):
+    mod, _, designs, _ = setup
+    ts, L = mod["ts"], designs["noreg"].L
+    dt = 1e-3
+    t = np.arange(0.0, 0.6, dt)
+    X, _, U = dmvt.simulate_bicycle_observer(BP, t, ts, L, C, xhat0=XHAT0)
+    Y = X @ C.T + 0.01 * np.random.default_rng(0).standard_normal((len(t), 2))
+    Qc = bb.discretisation_q(bb.bicycle_f(BP), X, U, dt)
+    res = ds.compare_estimators(BP, ts, {"dmvt": L}, C, t, X, U, Y, XHAT0, Qc,
+                                1e-4 * np.eye(2), np.eye(4), t_late=0.3)
+    assert set(res) == {"dmvt", "ekf", "ukf"}
+    Xd = dmvt.DMVTObserver(L, ts, BP, C, dt).run(t, U[:, None], Y, XHAT0).x
+    np.testing.assert_array_equal(res["dmvt"].x, Xd)
+    assert res["dmvt"].estimator == "dmvt" and res["ekf"].estimator == "EKF (filterpy)"
+    for r in res.values():
+        for k in ("rmse", "rmse_late", "overshoot", "settling"):
+            assert r.info[k].shape == (4,)
+        assert np.all(r.info["rmse"] > 0) and r.us_per_step > 0
+    # the filters' first posterior already moved the measured states: x_0|0 != xhat0
+    assert np.abs(res["ekf"].x[0, [0, 2]] - XHAT0[[0, 2]]).min() > 0.05
+    with pytest.raises(ValueError, match="uniform"):
+        ds.compare_estimators(BP, ts, {"dmvt": L}, C, t ** 2, X, U, Y, XHAT0, Qc,
+                              1e-4 * np.eye(2), np.eye(4))
+    with pytest.raises(ValueError, match="t_late = 0.7 s is past the end"):
+        ds.compare_estimators(BP, ts, {"dmvt": L}, C, t, X, U, Y, XHAT0, Qc,
+                              1e-4 * np.eye(2), np.eye(4), t_late=0.7)
+
+
+def test_scored_run_on_a_constructed_error_signal():
+    """Known answers: error pattern p = (0.3 recorded / 1 prior, -0.5, 0, 0, 0, 0.2, -0.2,
+    0.2, -0.2, 0) scaled by c_i per state, t = 0, 0.1, ..., 0.9 s, t_late = 0.5 s.
+    RMSE (recorded x_0|0) = |c| sqrt((0.09 + 0.25 + 0.16) / 10) = |c| sqrt(0.05); late RMSE =
+    |c| sqrt(0.16 / 5); overshoot from the prior error 1: 0.5 (it would be 0.5 / 0.3 from the
+    recorded one); 2 % settling: last sample outside 0.02 is k = 8 -> t = 0.9 s."""
+    t = np.arange(10) * 0.1
+    c = np.array([1.0, 2.0, -1.0, 0.5])
+    p = np.array([0.3, -0.5, 0, 0, 0, 0.2, -0.2, 0.2, -0.2, 0])
+    X = np.zeros((10, 4))
+    Xh = -np.outer(p, c)                      # e = x - xhat = p c
+    tr = Trajectory(t, Xh, ("x1", "x2", "x3", "x4"), seconds=2e-3)
+    r = ds.scored_run(tr, t, X, -c, 0.5, "est")   # prior error x(0) - xhat0 = c
+    np.testing.assert_allclose(r.info["rmse"], np.abs(c) * np.sqrt(0.05), rtol=1e-12)
+    np.testing.assert_allclose(r.info["rmse_late"], np.abs(c) * np.sqrt(0.032), rtol=1e-12)
+    np.testing.assert_allclose(r.info["overshoot"], 0.5, rtol=1e-12)
+    np.testing.assert_allclose(r.info["settling"], 0.9, rtol=1e-12)
+    assert r.us_per_step == pytest.approx(200.0) and r.estimator == "est"
+    np.testing.assert_array_equal(r.x, Xh)      # the recorded estimate is kept

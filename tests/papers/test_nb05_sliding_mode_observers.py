@@ -9,6 +9,7 @@ import pytest
 from vehicle_observers.models import fullcar
 from vehicle_observers.observers import sliding_mode as smo
 from vehicle_observers_papers.rabhi_2004 import constants as R
+from vehicle_observers_papers.rabhi_2004 import experiments as EX
 from vehicle_observers_papers.rabhi_2004 import sliding_mode_observers as rs
 
 T_A = 3.0   # s; metrics are taken after t_skip = 1 s
@@ -23,7 +24,7 @@ def _rmse_after(t, est, ref, t_skip=1.0):
 
 @pytest.fixture(scope="module")
 def truth():
-    return R.part_a_truth(T_A)
+    return EX.part_a_truth(T_A)
 
 
 @pytest.fixture(scope="module")
@@ -111,14 +112,14 @@ def test_mu_step_truth_and_adaptation():
     with the observer's slip stiffnesses now twice too large the adaptation of F0/sigma
     keeps the force error well below the non-adaptive observer's."""
     T = 4.0
-    man0, X0 = R.part_a_truth(T)
+    man0, X0 = EX.part_a_truth(T)
     man, Xs, runs = rs.mu_step_study(T, modes=("sign",))
     k = len(man.t) // 2
     assert np.array_equal(Xs[:k + 1], X0[:k + 1])
     assert not np.allclose(Xs[-1], X0[-1])
     assert rs._pct_max(runs[("sign", "partial")]) < 0.5 * rs._pct_max(runs[("sign", "none")])
     with pytest.raises(ValueError, match="t_step"):
-        R.part_a_truth_mu_step(T, t_step=5.0)
+        EX.part_a_truth_mu_step(T, t_step=5.0)
 
 
 def test_tradeoff_study_rows_and_seed(truth, A):
@@ -191,7 +192,7 @@ def test_ekf_study_and_metrics(truth, A, ek):
     # per second of driving = per step x steps per second, the rates read off the time grids
     steps_ekf, steps_smo = 1 / (res.t[1] - res.t[0]), 1 / (man.t[1] - man.t[0])
     assert tm["A_ekf_smo_cost_ratio_per_second"][0] == pytest.approx(
-        E["us_per_step"] * steps_ekf / (us * steps_smo), rel=1e-9)
+        E["res"].us_per_step * steps_ekf / (us * steps_smo), rel=1e-9)
     assert tm["A_ekf_us_per_step"][2].endswith("200 Hz") and "2 kHz" in tm["A_smo_us_per_step"][2]
     # wall-clock numbers never enter the metrics
     assert not any("us_per" in k or "cost" in k for k in m)
@@ -221,7 +222,7 @@ def test_ekf_rates_follow_dec(truth, A):
     assert ek5["q_ratio"] == pytest.approx(5 * R.dt_force / 0.5, rel=1e-12)
     tm = rs.ekf_timings(ek5, 1.0)
     assert tm["A_ekf_smo_cost_ratio_per_second"][0] == pytest.approx(
-        ek5["E"]["clean"]["us_per_step"] / 5, rel=1e-9)
+        ek5["E"]["clean"]["res"].us_per_step / 5, rel=1e-9)
     assert tm["A_ekf_us_per_step"][2].endswith("400 Hz")
     assert "400 Hz on block means of 5 samples (R / 5)" in rs.ekf_claim(ek5)["note"]
 
@@ -311,7 +312,7 @@ def test_paper_output_runs_use_no_wheel_displacement(P):
 def test_paper_claims_rules(A, P):
     """Every claim carries a Rule; the rules evaluate on the metrics of the notebook's
     experiments (short runs here) and the body-rate claim is flagged: its rates are measured."""
-    man, Xs = R.part_a_truth(T_A)
+    man, Xs = EX.part_a_truth(T_A)
     m = {}
     for d in (rs.force_metrics(A), rs.adaptation_metrics(rs.adaptation_study(man, Xs)),
               rs.adaptation_metrics(rs.mu_step_study(T_A)[2], prefix="A_mu"),

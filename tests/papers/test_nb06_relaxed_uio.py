@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
+from vehicle_observers.models import uncertain_lateral as ul
 from vehicle_observers.observers import uio
 from vehicle_observers.results.reporting import Report
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
@@ -39,7 +40,7 @@ def _values(metrics):
 
 
 def test_fit_metrics_units_on_known_tyres():
-    ty = uio.FuzzyTyres(a=np.radians(4.0), b=1.5, c=np.radians(-0.5), C_f=(4e4, 2e4),
+    ty = ul.FuzzyTyres(a=np.radians(4.0), b=1.5, c=np.radians(-0.5), C_f=(4e4, 2e4),
                         C_r=(5e4, 1e4), rms_rel=1e-3, max_rel=2e-3)
     m = us.fit_metrics(ty)
     assert m["fit_a_deg"][:2] == (pytest.approx(4.0), "deg")

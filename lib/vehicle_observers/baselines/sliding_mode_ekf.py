@@ -44,9 +44,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehicle_observers.baselines.filterpy_generic import FilterRun, run_ekf, run_ukf
-from vehicle_observers.models.planar import G_ACC
-from vehicle_observers.observers.sliding_mode import ForceObserverModel, force_errors, omega_h
+from vehicle_observers.baselines.ekf_observer import EKFObserver, EKFTrajectory, filter_trajectory
+from vehicle_observers.baselines.filterpy_generic import run_ukf
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.models.planar import G_ACC, IU_DELTA, IU_TF, IU_TR
+from vehicle_observers.observers.fixed_step import positive, positive_array
+from vehicle_observers.observers.sliding_mode import (
+    Z_TH,
+    Z_X2,
+    Z_X3,
+    Z_X4,
+    ForceObserver,
+    ForceObserverModel,
+    omega_h,
+)
 
 FORCE_NAMES = ("Fxf", "Fxr", "Fyf", "Fyr")
 N_X = 9
@@ -63,26 +74,28 @@ def force_rw_model(model: ForceObserverModel):
     q = model.as_array()
     H5 = np.hstack([np.eye(5), np.zeros((5, 4))])
 
+    # state blocks [x2 = (v_x, v_y, r), x3 = (omega_f, omega_r), x4 = forces]: the first
+    # blocks of the force observer's state (Z_X2, Z_X3, Z_X4, ending at Z_TH)
     def f(x, u):
-        Om, H = omega_h(u[0], q)
-        F = x[5:9]
+        Om, H = omega_h(u[IU_DELTA], q)
+        F = x[Z_X4:Z_TH]
         dx = np.zeros(N_X)
-        dx[0:3] = Om @ F
-        dx[0] += x[1] * x[2]
+        dx[Z_X2:Z_X3] = Om @ F
+        dx[0] += x[1] * x[2]        # transport terms v_y r, -v_x r (R-A3)
         dx[1] -= x[0] * x[2]
-        dx[3:5] = u[1:3] / J - H @ F
+        dx[Z_X3:Z_X4] = u[IU_TF:IU_TR + 1] / J - H @ F
         return dx
 
     def A(x, Om, H):
         a = np.zeros((N_X, N_X))
-        a[0:3, 5:9] = Om
+        a[Z_X2:Z_X3, Z_X4:Z_TH] = Om
         a[0, 1], a[0, 2] = x[2], x[1]
         a[1, 0], a[1, 2] = -x[2], -x[0]
-        a[3:5, 5:9] = -H
+        a[Z_X3:Z_X4, Z_X4:Z_TH] = -H
         return a
 
     def jac(x, u, dt):
-        Om, H = omega_h(u[0], q)
+        Om, H = omega_h(u[IU_DELTA], q)
         eye = np.eye(N_X)
         k1 = f(x, u)
         d1 = A(x, Om, H)
@@ -120,11 +133,12 @@ def noise_rule(model: ForceObserverModel, sensor_std, t_rise: float = 0.5, mu_ma
     """``(Q, R)`` by the rule of the module docstring: ``Q`` (9, 9) continuous intensity
     (zeros on the velocities, ``F_max^2 / t_rise`` on the forces), ``R = diag(sensor_std^2)``
     (5, 5). ``t_rise`` [s] > 0, ``sensor_std`` (5,) > 0."""
-    s = np.asarray(sensor_std, dtype=float)
-    if s.shape != (5,) or np.any(s <= 0):
-        raise ValueError(f"sensor_std must be 5 positive stds [vx, vy, r, w_f, w_r], got {s}")
-    if t_rise <= 0:
-        raise ValueError(f"t_rise must be > 0, got {t_rise}")
+    if np.shape(sensor_std) != (5,):
+        raise ObserverArgumentError(f"noise_rule: sensor_std must be 5 positive stds [vx, vy, "
+                                    f"r, w_f, w_r], got {sensor_std}")
+    s = positive_array("noise_rule", "sensor_std", sensor_std, (5,))
+    positive("noise_rule", "t_rise", t_rise)
+    positive("noise_rule", "mu_max", mu_max)
     Q = np.zeros((N_X, N_X))
     Q[5:, 5:] = np.diag(force_bounds(model, mu_max) ** 2 / t_rise)
     return Q, np.diag(s ** 2)
@@ -135,73 +149,95 @@ def block_mean(a, dec: int) -> np.ndarray:
     (N, ...) -> (N // dec, ...); a trailing incomplete block is dropped. ``dec = 1``
     returns ``a`` itself (as an array)."""
     a = np.asarray(a, dtype=float)
+    if int(dec) != dec or dec < 1:
+        raise ObserverArgumentError(f"block_mean: decimate must be an integer >= 1, got {dec}")
     dec = int(dec)
-    if dec < 1:
-        raise ValueError(f"decimate must be >= 1, got {dec}")
     if dec == 1:
         return a
     nb = len(a) // dec
     return a[:nb * dec].reshape(nb, dec, *a.shape[1:]).mean(axis=1)
 
 
-@dataclass
-class ForceEKFResult:
-    """EKF force estimates at the filter's samples: ``t`` (M,) block-centre times [s],
-    ``x`` (M, 9) posterior means, ``F`` (M, 4) forces [N], ``F_std`` (M, 4) posterior stds
-    [N], ``idx`` (M,) first measurement index of each block, ``z`` (M, 5) and ``u`` (M, 3) the
-    block-averaged measurements and inputs the filter used, ``R`` (5, 5) its measurement
-    covariance (``R / dec``), ``dec`` the block length, ``run`` the :class:`FilterRun`."""
+@dataclass(frozen=True, eq=False)
+class ForceEKFTrajectory(EKFTrajectory):
+    """Run of :func:`run_force_ekf` at the filter's samples: ``t`` (M,) block-centre times
+    [s], ``x`` (M, 9) posterior means, ``P_diag`` (M, 9) their variances; ``idx`` (M,) the
+    first measurement index of each block, ``z`` (M, 5) and ``u`` (M, 3) the block-averaged
+    measurements and inputs the filter used, ``R`` (5, 5) its measurement covariance
+    (``R / dec``), ``dec`` the block length. ``F`` (M, 4) the forces [N] (a view of ``x``)
+    and ``F_std`` (M, 4) their posterior standard deviations [N]."""
 
-    t: np.ndarray
-    x: np.ndarray
-    F: np.ndarray
-    F_std: np.ndarray
-    idx: np.ndarray
-    z: np.ndarray
-    u: np.ndarray
-    R: np.ndarray
-    dec: int
-    run: FilterRun
+    idx: np.ndarray | None = None
+    z: np.ndarray | None = None
+    u: np.ndarray | None = None
+    R: np.ndarray | None = None
+    dec: int = 1
 
     @property
-    def us_per_step(self) -> float:
-        return self.run.us_per_step
+    def F(self) -> np.ndarray:
+        return self.x[:, 5:9]
+
+    @property
+    def F_std(self) -> np.ndarray:
+        return np.sqrt(np.maximum(self.P_diag[:, 5:9], 0))
+
+
+class ForceEKF(EKFObserver):
+    """Random-walk-force EKF (the model of :func:`force_rw_model`) at the sample period ``dt``
+    [s], the observer contract: data as :class:`~vehicle_observers.observers.sliding_mode.ForceObserver`
+    (``u`` (N, 3) ``[delta, T_f, T_r]``, ``y`` (N, 5) ``[v_x, v_y, r, w_f, w_r]``), state
+    ``[v_x, v_y, r, omega_f, omega_r, F_xf, F_xr, F_yf, F_yr]``; ``Q`` (9, 9), ``R`` (5, 5)
+    (rule: :func:`noise_rule`), ``P0`` (9, 9); ``x0`` (9,) the prior mean."""
+
+    def __init__(self, model: ForceObserverModel, dt: float, Q, R, P0,
+                 name: str = "EKF random-walk forces (filterpy)"):
+        f, h, jac, hjac = force_rw_model(model)
+        super().__init__(f, h, dt, Q, R, P0, ForceObserver.state_names,
+                         ForceObserver.input_names, ForceObserver.output_names, jac=jac,
+                         hjac=hjac, name=name)
+        self.model = model
 
 
 def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: int = 1,
                   x0=None, P0_std=None, t_rise: float = 0.5, mu_max: float = 1.0,
-                  filter: str = "ekf") -> ForceEKFResult:
-    """Random-walk-force EKF (or UKF, ``filter='ukf'``) on the SMO's measurements.
+                  filter: str = "ekf") -> ForceEKFTrajectory:
+    """Random-walk-force EKF (:class:`ForceEKF`, or the UKF with ``filter='ukf'``) on the
+    SMO's measurements.
 
     t (N,) uniform [s], Y (N, 5) ``[v_x, v_y, r, w_f, w_r]``, U (N, 3) ``[delta, T_f, T_r]``
-    (as :func:`.observers.sliding_mode.run_force_observer`); with ``decimate = dec > 1`` the filter
-    runs on the
-    block means of ``dec`` samples (measurements and inputs, :func:`block_mean`; inputs held
-    over the step ``dec dt``) with ``R / dec``, time-stamped at the block centres. ``x0``
-    (9,) defaults to the first (block-mean) measurement and zero forces; ``P0_std`` (9,)
-    defaults to 1 m/s, 1 m/s, 0.1 rad/s, 5 rad/s, 5 rad/s and
-    ``F_max`` on the forces. ``Q, R`` from :func:`noise_rule`.
+    (as :class:`.observers.sliding_mode.ForceObserver`); with ``decimate = dec > 1`` the
+    filter runs on the block means of ``dec`` samples (measurements and inputs,
+    :func:`block_mean`; inputs held over the step ``dec dt``) with ``R / dec``,
+    time-stamped at the block centres. ``x0`` (9,) defaults to the first (block-mean)
+    measurement and zero forces; ``P0_std`` (9,) defaults to 1 m/s, 1 m/s, 0.1 rad/s, 5
+    rad/s, 5 rad/s and ``F_max`` on the forces. ``Q, R`` from :func:`noise_rule`.
     """
     t = np.asarray(t, dtype=float)
     Y = np.asarray(Y, dtype=float)
     U = np.asarray(U, dtype=float)
     if Y.ndim != 2 or Y.shape[1] != 5:
-        raise ValueError(f"Y must be (N, 5) [vx, vy, r, omega_f, omega_r], got {Y.shape}")
+        raise ObserverArgumentError(f"run_force_ekf: Y must be (N, 5) [vx, vy, r, omega_f, "
+                                    f"omega_r], got {Y.shape}")
     if U.shape != (len(Y), 3):
-        raise ValueError(f"U must be (N, 3) [delta, T_f, T_r] with N={len(Y)}, got {U.shape}")
+        raise ObserverArgumentError(f"run_force_ekf: U must be (N, 3) [delta, T_f, T_r] with "
+                                    f"N={len(Y)}, got {U.shape}")
     if t.shape != (len(Y),) or len(t) < 2:
-        raise ValueError(f"t must be (N,) with N={len(Y)} >= 2, got {t.shape}")
+        raise ObserverArgumentError(f"run_force_ekf: t must be (N,) with N={len(Y)} >= 2, got "
+                                    f"{t.shape}")
     dt = float(t[1] - t[0])
     if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
-        raise ValueError("t must be uniformly increasing (constant step)")
-    if int(decimate) < 1:
-        raise ValueError(f"decimate must be >= 1, got {decimate}")
+        raise ObserverArgumentError("run_force_ekf: t must be uniformly increasing (constant "
+                                    "step dt > 0)")
+    if int(decimate) != decimate or decimate < 1:
+        raise ObserverArgumentError(f"run_force_ekf: decimate must be an integer >= 1, got "
+                                    f"{decimate}")
     if filter not in ("ekf", "ukf"):
-        raise ValueError(f"filter must be 'ekf' or 'ukf', got {filter!r}")
+        raise ObserverArgumentError(f"run_force_ekf: filter must be 'ekf' or 'ukf', got "
+                                    f"{filter!r}")
     dec = int(decimate)
     if len(t) < 2 * dec:
-        raise ValueError(f"need at least 2 blocks of decimate = {dec} samples, got N = {len(t)}")
-    f, h, jac, hjac = force_rw_model(model)
+        raise ObserverArgumentError(f"run_force_ekf: need at least 2 blocks of decimate = {dec} "
+                                    f"samples, got N = {len(t)}")
     Q, R = noise_rule(model, sensor_std, t_rise, mu_max)
     R = R / dec                       # white noise: the mean of dec samples has R / dec
     z, u = block_mean(Y, dec), block_mean(U, dec)
@@ -213,40 +249,13 @@ def run_force_ekf(t, Y, U, model: ForceObserverModel, sensor_std, *, decimate: i
         P0_std = np.concatenate([[1.0, 1.0, 0.1, 5.0, 5.0], force_bounds(model, mu_max)])
     P0 = np.diag(np.asarray(P0_std, dtype=float) ** 2)
     dtf = dt * dec
+    extra = {"idx": idx, "z": z, "u": u, "R": R, "dec": dec}
     if filter == "ekf":
-        run = run_ekf(f, h, z, u, dtf, x0, P0, Q, R, jac=jac, hjac=hjac,
-                      name="EKF random-walk forces (filterpy)")
-    else:
-        run = run_ukf(f, h, z, u, dtf, x0, P0, Q, R, name="UKF random-walk forces (filterpy)")
-    return ForceEKFResult(tc, run.x, run.x[:, 5:9], np.sqrt(np.maximum(run.P_diag[:, 5:9], 0)),
-                          idx, z, u, R, dec, run)
-
-
-def part_a_ekf_run(man, Xs, p, sensor_std, *, errors=None, noise=None, seed: int = 0,
-                   decimate: int = 1, t_skip: float = 1.0, x2_err0=None, x3_err0=None,
-                   filter: str = "ekf", **kw) -> dict:
-    """EKF counterpart of ``rabhi_2004.constants.part_a_run``: same truth ``Xs`` (N, 12), same
-    measurements (:func:`.observers.sliding_mode.measurements_from_truth` with ``noise``, ``seed``), same
-    observer-model ``errors``, same initial velocity/wheel-speed errors (default
-    ``rabhi_2004.constants.x2_err0, x3_err0``), zero initial forces, same metrics after ``t_skip``
-    (:func:`.observers.sliding_mode.force_errors`; with ``decimate > 1`` against the block means of the true
-    forces, i.e. the truth at the block centres to O(dt^2)). ``p`` the truth
-    :class:`.models.planar.PlanarParams`, ``sensor_std`` (5,) for ``R``. Returns a dict with ``res``
-    (:class:`ForceEKFResult`), ``Y`` (N, 5) the measurements, ``rmse_*``, ``rmse_pct_*``,
-    ``us_per_step``."""
-    from vehicle_observers.observers.sliding_mode import measurements_from_truth
-
-    if x2_err0 is None or x3_err0 is None:
-        raise ValueError("part_a_ekf_run: give the initial errors x2_err0 (3,) and x3_err0 (2,) "
-                         "(the paper's: rabhi_2004.constants.x2_err0, x3_err0)")
-    model = ForceObserverModel.from_params(p, **(errors or {}))
-    Y = measurements_from_truth(Xs, noise, seed)
-    x0 = np.concatenate([Xs[0, 3:6] + np.asarray(x2_err0), Xs[0, 6:8] + np.asarray(x3_err0),
-                         np.zeros(4)])
-    res = run_force_ekf(man.t, Y, man.U, model, sensor_std, decimate=decimate, x0=x0,
-                        filter=filter, **kw)
-    F = Xs[:, 8:12]
-    peak = np.max(np.abs(F), axis=0)
-    out = {"res": res, "Y": Y, "us_per_step": res.us_per_step}
-    out.update(force_errors(res.t, res.F, block_mean(F, res.dec), peak, t_skip, FORCE_NAMES))
-    return out
+        ekf = ForceEKF(model, dtf, Q, R, P0)
+        run = ekf.run(tc, u, z, x0)
+        return ForceEKFTrajectory(run.t, run.x, run.names, seconds=run.seconds,
+                                  estimator=run.estimator, info=run.info, P_diag=run.P_diag,
+                                  **extra)
+    f, h, _, _ = force_rw_model(model)
+    run = run_ukf(f, h, z, u, dtf, x0, P0, Q, R, name="UKF random-walk forces (filterpy)")
+    return filter_trajectory(tc, run, ForceObserver.state_names, ForceEKFTrajectory, **extra)

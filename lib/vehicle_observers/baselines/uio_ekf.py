@@ -6,7 +6,7 @@ alternative to a UIO for fault estimation: augment the fault as a random-walk st
 Kalman filter on the *nominal* model.
 
 Model (the observer's nominal two-rule TS model, eqs. (8), (14)-(15) of the paper as
-reconstructed in :mod:`.observers.uio`, **without** the uncertainty ``M F(t) (N_a x + N_b u)``)::
+reconstructed in :mod:`.models.uncertain_lateral`, **without** the uncertainty ``M F(t) (N_a x + N_b u)``)::
 
     X = [v_y (m/s), r (rad/s), f (rad)],   u = delta (rad)
     X' = sum_i h_i (Abar_i X + Bbar_i u) + w_X,    Abar_i = [[A_i, B_i], [0, 0]]
@@ -53,8 +53,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from vehicle_observers.baselines.filterpy_generic import FilterRun, run_ekf, run_ukf
-from vehicle_observers.observers.uio import UncertainLateralTS, estimate_metrics
+from vehicle_observers.baselines.ekf_observer import EKFObserver, EKFTrajectory, filter_trajectory
+from vehicle_observers.baselines.filterpy_generic import run_ukf
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.models.uncertain_lateral import UncertainLateralTS
+from vehicle_observers.observers.fixed_step import positive, row_names
+from vehicle_observers.observers.uio import X_F, X_R, X_VY
 
 Array = np.ndarray
 
@@ -92,13 +96,10 @@ def noise_rule(model: UncertainLateralTS, dt: float, fdot_max: float | None = No
     (``q = s^2 dt``, dt-dependent); ``tau`` [s] > 0: correlation-time rule (``q = s^2 tau``,
     dt-independent). ``info`` holds ``d_max`` [m/s^2], ``fdot_max`` [rad/s] and ``tau``.
     """
-    if not dt > 0:
-        raise ValueError(f"dt must be > 0 s, got {dt}")
-    fd = float(model.scale_fdot if fdot_max is None else fdot_max)
-    if not fd > 0:
-        raise ValueError(f"fdot_max must be > 0 rad/s, got {fd}")
-    if tau is not None and not tau > 0:
-        raise ValueError(f"tau must be > 0 s (or None for the per-sample rule), got {tau}")
+    positive("noise_rule", "dt", dt)
+    fd = positive("noise_rule", "fdot_max", model.scale_fdot if fdot_max is None else fdot_max)
+    if tau is not None:
+        positive("noise_rule", "tau (None for the per-sample rule)", tau)
     Na, _ = model.uncertainty_matrices()
     d_max = float(max(np.abs(n[0]) @ model.scale_x[:2] for n in Na))
     scale = dt if tau is None else float(tau)   # q = s^2 dt  or  q = s^2 tau
@@ -109,40 +110,13 @@ def noise_rule(model: UncertainLateralTS, dt: float, fdot_max: float | None = No
     return Q, R, {"d_max": d_max, "fdot_max": fd, "tau": tau}
 
 
-def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str = "ekf",
-               Q=None, R=None, X0=None, P0=None, name: str | None = None) -> FilterRun:
-    """Run the filterpy EKF (``kind='ekf'``) or UKF (``'ukf'``) on the nominal augmented model.
-
-    delta (N,) [rad] measured steering, y (N, p) measurements ``C x + F_s f + noise`` (SI),
-    dt [s]; h (N, r) memberships (measured premises), ``None`` (memberships of the
-    estimated front slip angle, numerical Jacobian) or ``"estimated"`` (the same memberships
-    held over each step, as the UIO of :func:`.observers.uio.run_observer_estimated` does;
-    exact RK4 map, Jacobian without the membership derivative). ``Q``, ``R``: default
-    :func:`noise_rule` (per-sample rule); ``X0`` (3,) default 0 (as the UIO's ``Xhat(0)``); ``P0`` default
-    ``diag(scale_x^2)`` (the model's typical magnitudes). Returns a :class:`FilterRun` whose
-    ``x`` is (N, 3) = ``[v_y, r, f]`` posterior estimates in SI units.
-    """
-    Ab, Bb, Cb = nominal_augmented(model)
-    delta = np.asarray(delta, dtype=float)
-    if delta.ndim != 1:
-        raise ValueError(f"delta must be (N,) [rad], got shape {delta.shape}")
-    N, p, r = len(delta), Cb.shape[0], Ab.shape[0]
-    y = np.asarray(y, dtype=float)
-    if y.shape != (N, p):
-        raise ValueError(f"y must be ({N}, {p}) (samples x outputs), got {y.shape}")
-    if kind not in ("ekf", "ukf"):
-        raise ValueError(f"kind must be 'ekf' or 'ukf', got {kind!r}")
-    Qd, Rd, _ = noise_rule(model, dt)
-    Q = Qd if Q is None else Q
-    R = Rd if R is None else R
-    X0 = np.zeros(3) if X0 is None else np.asarray(X0, dtype=float)
-    P0 = np.diag(model.scale_x**2) if P0 is None else P0
-    name = name or ("EKF (filterpy)" if kind == "ekf" else "UKF (filterpy)")
+def _fault_model(model: UncertainLateralTS, premise: str):
+    """``(f, jac)`` of the nominal augmented model (14)-(15) for the premise ``"measured"``
+    (``u = [delta, h_1, .., h_r]``), ``"nonlinear"`` (memberships of the estimated front slip
+    angle inside ``f``, ``jac`` None: numerical) or ``"estimated"`` (those memberships held
+    over the step, exact RK4 map)."""
+    Ab, Bb, _ = nominal_augmented(model)
     tyres, lf, vx = model.tyres, model.l_f, model.vx
-
-    def hfun(X, u):
-        return Cb @ X
-
     eye = np.eye(3)
 
     def rk4_map(w, X, u0, dt_):
@@ -154,13 +128,9 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
         S = eye + Ad / 2 + A2 / 6 + A2 @ Ad / 24
         return X + Ad @ (S @ X) + dt_ * (S @ B) * u0, eye + Ad @ S
 
-    if isinstance(h, str):
-        if h != "estimated":
-            raise ValueError(f"h must be memberships (N, {r}), None or 'estimated', got {h!r}")
-        u = delta[:, None]
-
+    if premise == "estimated":
         def w_est(X, u0):
-            return tyres.memberships(u0 + X[2] - (X[0] + lf * X[1]) / vx)
+            return tyres.memberships(u0 + X[X_F] - (X[X_VY] + lf * X[X_R]) / vx)
 
         def f(X, u):
             A, B = _blend(w_est(X, u[0]), Ab, Bb)
@@ -170,48 +140,103 @@ def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str
             # memberships of the current estimate held over the step (as the UIO does);
             # the Jacobian leaves out their derivative with respect to X
             return rk4_map(w_est(X, u[0]), X, u[0], dt_)
-    elif h is not None:
-        h = np.asarray(h, dtype=float)
-        if h.shape != (N, r):
-            raise ValueError(f"h must be ({N}, {r}) memberships, got {h.shape}")
-        if np.abs(h.sum(axis=1) - 1).max() > 1e-9 or h.min() < -1e-12:
-            raise ValueError("memberships h must be >= 0 and sum to 1 on every row")
-        u = np.column_stack([delta, h])
-
+        return f, jac
+    if premise == "measured":
         def f(X, u):
             A, B = _blend(u[1:], Ab, Bb)
             return A @ X + B * u[0]
 
         def jac(X, u, dt_):
             return rk4_map(u[1:], X, u[0], dt_)
-    else:
-        u = delta[:, None]
-        jac = None
+        return f, jac
 
-        def f(X, u):
-            af = u[0] + X[2] - (X[0] + lf * X[1]) / vx
-            A, B = _blend(tyres.memberships(af), Ab, Bb)
-            return A @ X + B * u[0]
-
-    if kind == "ekf":
-        return run_ekf(f, hfun, y, u, dt, X0, P0, Q, R, jac=jac, hjac=lambda X, u: Cb,
-                       name=name)
-    return run_ukf(f, hfun, y, u, dt, X0, P0, Q, R, name=name)
+    def f(X, u):
+        af = u[0] + X[X_F] - (X[X_VY] + lf * X[X_R]) / vx
+        A, B = _blend(tyres.memberships(af), Ab, Bb)
+        return A @ X + B * u[0]
+    return f, None
 
 
-def evaluate_filter(model: UncertainLateralTS, sc: dict, h="measured", kind: str = "ekf",
-                    **kw) -> dict:
-    """Run :func:`run_filter` on a scenario of :func:`.observers.uio.make_scenario` and compute the same
-    metrics as :func:`.observers.uio.evaluate` (``rmse_vy``, ``rmse_r``, ``rmse_f`` after the fault,
-    ``fault_delay``...) plus ``run`` (the :class:`FilterRun`) and ``us_per_step``.
+class FaultEKF(EKFObserver):
+    """filterpy EKF on the nominal augmented model (14)-(15) with the fault as a random walk,
+    at the sample period ``dt`` [s] (the observer contract). ``premise``: ``"measured"``
+    (input ``u`` (N, 1 + r) ``[delta, h_1, .., h_r]``, the paper's measurable premises: the
+    exact Kalman filter of the RK4-discretised linear time-varying model), ``"estimated"``
+    (``u`` (N, 1) ``[delta]``, memberships of the estimated front slip angle held over each
+    step, as :class:`.observers.uio.UIObserver` does) or ``"nonlinear"`` (the same
+    memberships inside ``f``, numerical Jacobian). ``y`` (N, p) ``C x + F_s f`` (+ noise);
+    state ``[v_y, r, f]`` (SI); ``Q``, ``R`` (rule :func:`noise_rule`), ``P0``; ``x0`` (3,)."""
 
-    ``h='measured'``: the scenario's true memberships (comparison only: they contain the
-    true slip angle and fault); ``None`` or ``'estimated'``: premises from the filter's own
-    estimate (:func:`run_filter`). Other keywords go to :func:`run_filter`.
+    def __init__(self, model: UncertainLateralTS, dt: float, Q, R, P0,
+                 premise: str = "estimated", name: str = "EKF (filterpy)"):
+        if premise not in ("measured", "estimated", "nonlinear"):
+            raise ObserverArgumentError(f"FaultEKF: premise must be 'measured', 'estimated' or "
+                                        f"'nonlinear', got {premise!r}")
+        f, jac = _fault_model(model, premise)
+        _, _, Cb = nominal_augmented(model)
+        r = len(model.A)
+        inputs = ("delta_roadwheel_rad",) + (tuple(f"h{i + 1}" for i in range(r))
+                                             if premise == "measured" else ())
+        states = ("vy_mps", "yaw_rate_radps", "fault_rad")
+        super().__init__(f, lambda X, u: Cb @ X, dt, Q, R, P0, states, inputs,
+                         row_names(model.C, states[:2]), jac=jac, hjac=lambda X, u: Cb,
+                         name=name)
+        self.model, self.premise = model, premise
+
+
+def run_filter(model: UncertainLateralTS, delta, y, dt: float, h=None, kind: str = "ekf",
+               Q=None, R=None, X0=None, P0=None, name: str | None = None) -> EKFTrajectory:
+    """Run the filterpy EKF (``kind='ekf'``) or UKF (``'ukf'``) on the nominal augmented model.
+
+    delta (N,) [rad] measured steering, y (N, p) measurements ``C x + F_s f + noise`` (SI),
+    dt [s]; h (N, r) memberships (measured premises), ``None`` (memberships of the
+    estimated front slip angle, numerical Jacobian) or ``"estimated"`` (the same memberships
+    held over each step, as :class:`.observers.uio.UIObserver` does; exact RK4 map, Jacobian
+    without the membership derivative): :class:`FaultEKF` with premise ``"measured"``,
+    ``"nonlinear"`` or ``"estimated"``. ``Q``, ``R``: default :func:`noise_rule` (per-sample
+    rule); ``X0`` (3,) default 0 (as the UIO's ``Xhat(0)``); ``P0`` default
+    ``diag(scale_x^2)`` (the model's typical magnitudes). Returns an
+    :class:`~.baselines.ekf_observer.EKFTrajectory` on ``t = k dt``: ``x`` (N, 3) = ``[v_y,
+    r, f]`` posterior estimates in SI units, ``P_diag`` (N, 3).
     """
-    hh = sc["h"] if isinstance(h, str) and h == "measured" else h
-    run = run_filter(model, sc["delta"], sc["y"], sc["dt"], hh, kind, **kw)
-    out = estimate_metrics(run.x, sc)
-    out["run"] = run
-    out["us_per_step"] = run.us_per_step
-    return out
+    who = "run_filter"
+    delta = np.asarray(delta, dtype=float)
+    if delta.ndim != 1:
+        raise ObserverArgumentError(f"{who}: delta must be (N,) [rad], got shape {delta.shape}")
+    _, _, Cb = nominal_augmented(model)
+    N, p, r = len(delta), Cb.shape[0], len(model.A)
+    y = np.asarray(y, dtype=float)
+    if y.shape != (N, p):
+        raise ObserverArgumentError(f"{who}: y must be ({N}, {p}) (samples x outputs), got "
+                                    f"{y.shape}")
+    if kind not in ("ekf", "ukf"):
+        raise ObserverArgumentError(f"{who}: kind must be 'ekf' or 'ukf', got {kind!r}")
+    dt = positive(who, "dt", dt)
+    if isinstance(h, str):
+        if h != "estimated":
+            raise ObserverArgumentError(f"{who}: h must be memberships (N, {r}), None or "
+                                        f"'estimated', got {h!r}")
+        premise, u = "estimated", delta[:, None]
+    elif h is not None:
+        h = np.asarray(h, dtype=float)
+        if h.shape != (N, r):
+            raise ObserverArgumentError(f"{who}: h must be ({N}, {r}) memberships, got "
+                                        f"{h.shape}")
+        if np.abs(h.sum(axis=1) - 1).max() > 1e-9 or h.min() < -1e-12:
+            raise ObserverArgumentError(f"{who}: memberships h must be >= 0 and sum to 1 on "
+                                        "every row")
+        premise, u = "measured", np.column_stack([delta, h])
+    else:
+        premise, u = "nonlinear", delta[:, None]
+    Qd, Rd, _ = noise_rule(model, dt)
+    Q = Qd if Q is None else Q
+    R = Rd if R is None else R
+    X0 = np.zeros(3) if X0 is None else np.asarray(X0, dtype=float)
+    P0 = np.diag(model.scale_x**2) if P0 is None else P0
+    name = name or ("EKF (filterpy)" if kind == "ekf" else "UKF (filterpy)")
+    t = np.arange(N) * dt
+    ekf = FaultEKF(model, dt, Q, R, P0, premise, name)
+    if kind == "ekf":
+        return ekf.run(t, u, y, X0)
+    run = run_ukf(ekf.f, ekf.h, y, u, dt, X0, P0, Q, R, name=name)
+    return filter_trajectory(t, run, ekf.state_names)

@@ -30,7 +30,12 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models.ts import Premise, SectorTS
+
+#: index of each constant in :meth:`BicycleParams.as_array` (the packed vector the compiled
+#: kernels of this module and of :mod:`vehicle_observers.observers.dmvt` read)
+BP_P, BP_C, BP_V, BP_G, BP_K1, BP_K2 = range(6)
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,7 @@ class BicycleParams:
     k2: float = 10.0
 
     def as_array(self):
+        """``[p, c, v, g, k1, k2]``, indices :data:`BP_P` ... :data:`BP_K2`."""
         return np.array([self.p, self.c, self.v, self.g, self.k1, self.k2], dtype=float)
 
 
@@ -121,16 +127,27 @@ def bicycle_ts(bp: BicycleParams, bounds) -> SectorTS:
 
 
 @njit(cache=True)
+def plant_rhs(x, t, P, out):
+    """Closed loop (25)+(27) (compiled): ``out`` (4,) = ``f(x, u)`` at time ``t`` [s] with
+    the tracking law ``u = -k1 (x3 - sin t) - k2 (x4 - cos t)``; returns ``u``. ``P`` is
+    :meth:`BicycleParams.as_array`. The one compiled definition of the plant, also used by
+    the plant/observer co-simulation of :mod:`vehicle_observers.observers.dmvt`."""
+    p, c, v, g = P[BP_P], P[BP_C], P[BP_V], P[BP_G]
+    u = -P[BP_K1] * (x[2] - np.sin(t)) - P[BP_K2] * (x[3] - np.cos(t))
+    out[0] = x[1] * v
+    out[1] = u
+    out[2] = x[3]
+    out[3] = (g * np.sin(x[2]) + (1 + p * x[1] * np.sin(x[2])) * np.cos(x[2]) * x[1] * v * v
+              + c * np.cos(x[2]) * v * u) / p
+    return u
+
+
+@njit(cache=True)
 def _bike_f(x, t, P, ts_mode, Av, Bv, zmin, zmax, out):
-    p, c, v, g, k1, k2 = P[0], P[1], P[2], P[3], P[4], P[5]
-    u = -k1 * (x[2] - np.sin(t)) - k2 * (x[3] - np.cos(t))
     if not ts_mode:
-        out[0] = x[1] * v
-        out[1] = u
-        out[2] = x[3]
-        out[3] = (g * np.sin(x[2]) + (1 + p * x[1] * np.sin(x[2])) * np.cos(x[2]) * x[1] * v * v
-                  + c * np.cos(x[2]) * v * u) / p
-        return u
+        return plant_rhs(x, t, P, out)
+    p, c, v, g = P[BP_P], P[BP_C], P[BP_V], P[BP_G]
+    u = -P[BP_K1] * (x[2] - np.sin(t)) - P[BP_K2] * (x[3] - np.cos(t))
     z = np.empty(3)
     z[0] = g / p * (np.sin(x[2]) / x[2] if abs(x[2]) > 1e-8 else 1.0)
     z[1] = (1 + p * x[1] * np.sin(x[2])) * np.cos(x[2]) * v * v / p
@@ -189,8 +206,15 @@ def simulate(bp: BicycleParams, t, x0=(0.0, 0.0, 0.0, 0.0), ts: SectorTS | None 
     Returns (X (N, 4), u (N,)).
     """
     t = np.ascontiguousarray(t, dtype=float)
+    if t.ndim != 1 or len(t) < 1 or not np.all(np.isfinite(t)):
+        raise ObserverArgumentError(f"bicycle.simulate: t must be a finite (N,) time grid, "
+                                    f"got shape {t.shape}")
     if np.any(np.diff(t) <= 0):
-        raise ValueError("time grid must be strictly increasing")
+        raise ObserverArgumentError("bicycle.simulate: the time grid t must be strictly "
+                                    "increasing (a time step dt <= 0)")
+    x0 = np.asarray(x0, dtype=float)
+    if x0.shape != (4,) or not np.all(np.isfinite(x0)):
+        raise ObserverArgumentError(f"bicycle.simulate: x0 must be 4 finite values, got {x0}")
     if ts is None:
         Av = np.zeros((1, 4, 4))
         Bv = np.zeros((1, 4, 1))
@@ -198,5 +222,5 @@ def simulate(bp: BicycleParams, t, x0=(0.0, 0.0, 0.0, 0.0), ts: SectorTS | None 
         zmax = np.ones(3)
     else:
         Av, Bv, zmin, zmax = ts.A, ts.B, ts.zmin, ts.zmax
-    return _bike_sim(np.asarray(x0, dtype=float), t, bp.as_array(), ts is not None, Av, Bv,
+    return _bike_sim(x0, t, bp.as_array(), ts is not None, Av, Bv,
                      zmin, zmax)

@@ -39,7 +39,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
+from vehicle_observers.core.errors import ObserverArgumentError
+
 WHEELS = ("rear left", "rear right", "front left", "front right")
+#: first column of each block of :func:`outputs` (observer outputs ``[x11 (4), x12 (3), x22
+#: (3)]``; paper outputs (29) ``[x12 (3), x22 (3), x31 (4)]``), read by the road observers
+OUT_X11, OUT_X12, OUT_X22 = 0, 4, 7
+PAPER_X12, PAPER_X22, PAPER_X31 = 0, 3, 6
 
 
 @dataclass(frozen=True)
@@ -188,15 +194,20 @@ def simulate(U, dt: float, p: FullCarParams, x0=None) -> np.ndarray:
     ``[q, q']``; starts at rest (``x0`` = static equilibrium for ``U[0]``) unless ``x0``
     given."""
     U = np.ascontiguousarray(U, dtype=float)
-    if U.ndim != 2 or U.shape[1] != 4:
-        raise ValueError(f"U must be (N, 4) road elevations (RL, RR, FL, FR), got {U.shape}")
+    if U.ndim != 2 or U.shape[1] != 4 or len(U) < 1:
+        raise ObserverArgumentError(f"fullcar.simulate: U must be (N, 4) road elevations (RL, "
+                                    f"RR, FL, FR), got {U.shape}")
     if not np.all(np.isfinite(U)):
         k = int(np.argmax(~np.all(np.isfinite(U), axis=1)))
-        raise ValueError(f"road input row {k} is not finite: {U[k]}")
-    if dt <= 0:
-        raise ValueError(f"dt must be > 0, got {dt}")
+        raise ObserverArgumentError(f"fullcar.simulate: road input U row {k} is not finite: "
+                                    f"{U[k]}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ObserverArgumentError(f"fullcar.simulate: dt must be > 0 s, got {dt}")
     if x0 is None:
         x0 = np.concatenate([static_deflection(U[0], p), np.zeros(7)])
+    elif np.shape(x0) != (14,) or not np.all(np.isfinite(x0)):
+        raise ObserverArgumentError(f"fullcar.simulate: x0 must be 14 finite values [q, q'], "
+                                    f"got shape {np.shape(x0)}")
     Phi, Gu, Gw = discretise(p, float(dt))
     return _simulate_exact(np.asarray(x0, dtype=float), Phi, Gu, Gw, U, float(dt))
 
@@ -211,11 +222,11 @@ def outputs(X, U, Ud, p: FullCarParams, paper: bool = False) -> np.ndarray:
     and the body position), body positions and rates.
     """
     X = np.asarray(X, dtype=float)
-    if paper:
+    if paper:   # columns PAPER_X12, PAPER_X22, PAPER_X31
         A, Bu, Bd = p.state_space()
         xd = X @ A.T + np.asarray(U) @ Bu.T + np.asarray(Ud) @ Bd.T
         return np.concatenate([X[:, 4:7], X[:, 11:14], xd[:, 7:11]], axis=1)
-    return np.concatenate([X[:, 0:4], X[:, 4:7], X[:, 11:14]], axis=1)
+    return np.concatenate([X[:, 0:4], X[:, 4:7], X[:, 11:14]], axis=1)   # OUT_X11, _X12, _X22
 
 
 def warp_vector(p: FullCarParams) -> np.ndarray:

@@ -47,12 +47,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.models.tires import magic_formula
+
 G_ACC = 9.81
 
 # state indices
 IX, IY, IPSI, IVX, IVY, IR, IWF, IWR, IFXF, IFXR, IFYF, IFYR = range(12)
+#: input indices of ``u = [delta_f, T_f, T_r]``
+IU_DELTA, IU_TF, IU_TR = range(3)
 STATE_NAMES = ("X", "Y", "psi", "vx", "vy", "r", "omega_f", "omega_r",
                "Fxf", "Fxr", "Fyf", "Fyr")
+#: the measured states ``[v_x, v_y, r, omega_f, omega_r]`` of :func:`measurements`, in order
+MEASURED = (IVX, IVY, IR, IWF, IWR)
+#: index of each constant in :meth:`PlanarParams.as_array` (read by the compiled kernels)
+(PP_M, PP_JZ, PP_LF, PP_LR, PP_RF, PP_RR, PP_JF, PP_JR, PP_SX, PP_SY, PP_MU, PP_BX, PP_CX,
+ PP_EX, PP_BY, PP_CY, PP_EY, PP_BXA, PP_CXA, PP_BYK, PP_CYK, PP_VEPS, PP_FZF, PP_FZR) = range(24)
 
 
 @dataclass(frozen=True)
@@ -124,6 +134,8 @@ class PlanarParams:
         return replace(self, **kw)
 
     def as_array(self) -> np.ndarray:
+        """The constants packed for the kernels, indices :data:`PP_M` ... :data:`PP_FZR`
+        (the static axle loads last)."""
         return np.array([self.m, self.J_z, self.l_f, self.l_r, self.r_f, self.r_r, self.J_f,
                          self.J_r, self.sigma_x, self.sigma_y, self.mu, self.B_x, self.C_x,
                          self.E_x, self.B_y, self.C_y, self.E_y, self.B_xa, self.C_xa,
@@ -132,16 +144,10 @@ class PlanarParams:
 
 # ------------------------------------------------------------------ numba kernels ---------
 @njit(cache=True)
-def _mf1(s, B, C, D, E):
-    bs = B * s
-    return D * np.sin(C * np.arctan(bs - E * (bs - np.arctan(bs))))
-
-
-@njit(cache=True)
 def _contact(X, delta, P):
     """Wheel-frame contact velocities (v_cx, v_cy) of the front and rear axle."""
-    vx, vy, r = X[3], X[4], X[5]
-    lf, lr = P[2], P[3]
+    vx, vy, r = X[IVX], X[IVY], X[IR]
+    lf, lr = P[PP_LF], P[PP_LR]
     c, s = np.cos(delta), np.sin(delta)
     vyf = vy + lf * r
     vcx_f = vx * c + vyf * s
@@ -153,42 +159,44 @@ def _contact(X, delta, P):
 
 @njit(cache=True)
 def _combined(vcx, vcy, omega, radius, Fz, P):
-    """Steady combined-slip forces (F_x, F_y) [N] and slips (kappa, alpha)."""
-    veps = P[21]
+    """Steady combined-slip forces (F_x, F_y) [N] and slips (kappa, alpha): the magic
+    formula of :func:`vehicle_observers.models.tires.magic_formula` (``B k - E (B k -
+    atan(B k))`` written ``B (1 - E) k + E atan(B k)``) times the cosine weights."""
+    veps = P[PP_VEPS]
     den = max(abs(vcx), veps)
     kappa = (radius * omega - vcx) / den
     alpha = -np.arctan(vcy / den)
-    D = P[10] * Fz
-    Fx0 = _mf1(kappa, P[11], P[12], D, P[13])
-    Fy0 = _mf1(alpha, P[14], P[15], D, P[16])
-    Gxa = np.cos(P[18] * np.arctan(P[17] * alpha))
-    Gyk = np.cos(P[20] * np.arctan(P[19] * kappa))
+    D = P[PP_MU] * Fz
+    Fx0 = magic_formula(kappa, P[PP_BX], P[PP_CX], D, P[PP_EX])
+    Fy0 = magic_formula(alpha, P[PP_BY], P[PP_CY], D, P[PP_EY])
+    Gxa = np.cos(P[PP_CXA] * np.arctan(P[PP_BXA] * alpha))
+    Gyk = np.cos(P[PP_CYK] * np.arctan(P[PP_BYK] * kappa))
     return Fx0 * Gxa, Fy0 * Gyk, kappa, alpha
 
 
 @njit(cache=True)
 def _rhs(X, u, P, out):
-    m, Jz, lf, lr, rf, rr, Jf, Jr, sx, sy = (P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7],
-                                             P[8], P[9])
-    delta, Tf, Tr = u[0], u[1], u[2]
-    psi, vx, vy, r = X[2], X[3], X[4], X[5]
-    Fxf, Fxr, Fyf, Fyr = X[8], X[9], X[10], X[11]
+    m, Jz, lf, lr = P[PP_M], P[PP_JZ], P[PP_LF], P[PP_LR]
+    rf, rr, Jf, Jr, sx, sy = P[PP_RF], P[PP_RR], P[PP_JF], P[PP_JR], P[PP_SX], P[PP_SY]
+    delta, Tf, Tr = u[IU_DELTA], u[IU_TF], u[IU_TR]
+    psi, vx, vy, r = X[IPSI], X[IVX], X[IVY], X[IR]
+    Fxf, Fxr, Fyf, Fyr = X[IFXF], X[IFXR], X[IFYF], X[IFYR]
     c, s = np.cos(delta), np.sin(delta)
-    out[0] = vx * np.cos(psi) - vy * np.sin(psi)
-    out[1] = vx * np.sin(psi) + vy * np.cos(psi)
-    out[2] = r
-    out[3] = vy * r + (Fxf * c - Fyf * s + Fxr) / m
-    out[4] = -vx * r + (Fxf * s + Fyf * c + Fyr) / m
-    out[5] = (lf * (Fxf * s + Fyf * c) - lr * Fyr) / Jz
-    out[6] = (Tf - rf * Fxf) / Jf
-    out[7] = (Tr - rr * Fxr) / Jr
+    out[IX] = vx * np.cos(psi) - vy * np.sin(psi)
+    out[IY] = vx * np.sin(psi) + vy * np.cos(psi)
+    out[IPSI] = r
+    out[IVX] = vy * r + (Fxf * c - Fyf * s + Fxr) / m
+    out[IVY] = -vx * r + (Fxf * s + Fyf * c + Fyr) / m
+    out[IR] = (lf * (Fxf * s + Fyf * c) - lr * Fyr) / Jz
+    out[IWF] = (Tf - rf * Fxf) / Jf
+    out[IWR] = (Tr - rr * Fxr) / Jr
     vcx_f, vcy_f, vcx_r, vcy_r = _contact(X, delta, P)
-    Fxs_f, Fys_f, _, _ = _combined(vcx_f, vcy_f, X[6], rf, P[22], P)
-    Fxs_r, Fys_r, _, _ = _combined(vcx_r, vcy_r, X[7], rr, P[23], P)
-    out[8] = abs(vcx_f) / sx * (Fxs_f - Fxf)
-    out[9] = abs(vcx_r) / sx * (Fxs_r - Fxr)
-    out[10] = abs(vcx_f) / sy * (Fys_f - Fyf)
-    out[11] = abs(vcx_r) / sy * (Fys_r - Fyr)
+    Fxs_f, Fys_f, _, _ = _combined(vcx_f, vcy_f, X[IWF], rf, P[PP_FZF], P)
+    Fxs_r, Fys_r, _, _ = _combined(vcx_r, vcy_r, X[IWR], rr, P[PP_FZR], P)
+    out[IFXF] = abs(vcx_f) / sx * (Fxs_f - Fxf)
+    out[IFXR] = abs(vcx_r) / sx * (Fxs_r - Fxr)
+    out[IFYF] = abs(vcx_f) / sy * (Fys_f - Fyf)
+    out[IFYR] = abs(vcx_r) / sy * (Fys_r - Fyr)
 
 
 @njit(cache=True)
@@ -236,16 +244,16 @@ def steady_forces(X, delta, p: PlanarParams) -> np.ndarray:
     P = p.as_array()
     X = np.asarray(X, dtype=float)
     vcx_f, vcy_f, vcx_r, vcy_r = _contact(X, float(delta), P)
-    fxf, fyf, kf, af = _combined(vcx_f, vcy_f, X[6], p.r_f, p.Fz_f, P)
-    fxr, fyr, kr, ar = _combined(vcx_r, vcy_r, X[7], p.r_r, p.Fz_r, P)
+    fxf, fyf, kf, af = _combined(vcx_f, vcy_f, X[IWF], p.r_f, p.Fz_f, P)
+    fxr, fyr, kr, ar = _combined(vcx_r, vcy_r, X[IWR], p.r_r, p.Fz_r, P)
     return np.array([[fxf, fxr, fyf, fyr], [kf, kr, af, ar]])
 
 
 def kinetic_energy(X, p: PlanarParams) -> float:
     """``T = m (v_x^2 + v_y^2)/2 + J_z r^2/2 + J_f omega_f^2/2 + J_r omega_r^2/2`` [J]."""
     X = np.asarray(X, dtype=float)
-    return float(0.5 * p.m * (X[3] ** 2 + X[4] ** 2) + 0.5 * p.J_z * X[5] ** 2
-                 + 0.5 * p.J_f * X[6] ** 2 + 0.5 * p.J_r * X[7] ** 2)
+    return float(0.5 * p.m * (X[IVX] ** 2 + X[IVY] ** 2) + 0.5 * p.J_z * X[IR] ** 2
+                 + 0.5 * p.J_f * X[IWF] ** 2 + 0.5 * p.J_r * X[IWR] ** 2)
 
 
 def power_balance(X, u, p: PlanarParams) -> float:
@@ -256,9 +264,9 @@ def power_balance(X, u, p: PlanarParams) -> float:
     P = p.as_array()
     delta, Tf, Tr = u
     vcx_f, vcy_f, vcx_r, vcy_r = _contact(X, float(delta), P)
-    return float(Tf * X[6] + Tr * X[7]
-                 - X[8] * (p.r_f * X[6] - vcx_f) - X[9] * (p.r_r * X[7] - vcx_r)
-                 + X[10] * vcy_f + X[11] * vcy_r)
+    return float(Tf * X[IWF] + Tr * X[IWR]
+                 - X[IFXF] * (p.r_f * X[IWF] - vcx_f) - X[IFXR] * (p.r_r * X[IWR] - vcx_r)
+                 + X[IFYF] * vcy_f + X[IFYR] * vcy_r)
 
 
 def free_rolling_state(vx: float, p: PlanarParams) -> np.ndarray:
@@ -279,16 +287,41 @@ def simulate(X0, U, dt: float, p: PlanarParams, substeps: int = 1) -> np.ndarray
     """
     U = np.ascontiguousarray(U, dtype=float)
     if U.ndim != 2 or U.shape[1] != 3:
-        raise ValueError(f"U must have shape (N, 3) [delta, T_f, T_r], got {U.shape}")
+        raise ObserverArgumentError(f"planar.simulate: U must have shape (N, 3) [delta, T_f, "
+                                    f"T_r], got {U.shape}")
     if not np.all(np.isfinite(U)):
         k = int(np.argmax(~np.all(np.isfinite(U), axis=1)))
-        raise ValueError(f"U row {k} is not finite: {U[k]}")
+        raise ObserverArgumentError(f"planar.simulate: U row {k} is not finite: {U[k]}")
     X0 = np.asarray(X0, dtype=float)
-    if X0.shape != (12,):
-        raise ValueError(f"X0 must have shape (12,), got {X0.shape}")
-    if dt <= 0 or int(substeps) < 1:
-        raise ValueError(f"need dt > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+    if X0.shape != (12,) or not np.all(np.isfinite(X0)):
+        raise ObserverArgumentError(f"planar.simulate: X0 must be 12 finite values, got shape "
+                                    f"{X0.shape}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ObserverArgumentError(f"planar.simulate: dt must be > 0 s, got {dt}")
+    if int(substeps) != substeps or substeps < 1:
+        raise ObserverArgumentError(f"planar.simulate: substeps must be an integer >= 1, got "
+                                    f"{substeps}")
     return _simulate(X0.copy(), U, float(dt), p.as_array(), int(substeps))
+
+
+def measurements(Xs, noise_std=None, seed: int = 0) -> np.ndarray:
+    """Sensors of Rabhi 2004 Part A: measured ``[v_x, v_y, r, omega_f, omega_r]`` (N, 5) [m/s,
+    m/s, rad/s, rad/s, rad/s] (states :data:`MEASURED`) of a trajectory ``Xs`` (N, 12), with
+    optional white noise of standard deviations ``noise_std`` (5,) drawn from
+    ``default_rng(seed)``."""
+    Xs = np.asarray(Xs, dtype=float)
+    if Xs.ndim != 2 or Xs.shape[1] != 12:
+        raise ObserverArgumentError(f"planar.measurements: Xs must be (N, 12) states, got "
+                                    f"{Xs.shape}")
+    Y = Xs[:, list(MEASURED)].copy()
+    if noise_std is not None:
+        std = np.asarray(noise_std, dtype=float)
+        if std.shape != (5,) or np.any(std < 0) or not np.all(np.isfinite(std)):
+            raise ObserverArgumentError(f"planar.measurements: noise_std must be 5 finite "
+                                        f"standard deviations >= 0, got {noise_std}")
+        rng = np.random.default_rng(seed)
+        Y += rng.normal(size=Y.shape) * std
+    return Y
 
 
 @dataclass(frozen=True)

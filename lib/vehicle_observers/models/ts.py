@@ -17,17 +17,23 @@ The exactness holds only inside the bounds: :meth:`SectorTS.memberships` raises
 :class:`~vehicle_observers.core.errors.PremiseOutOfBounds` naming the premise, the sample and
 the value when a premise leaves them (``clip=True`` saturates instead, which is what an
 observer fed with noisy estimates needs; the TS model is then no longer exact there).
+
+The second TS form here is the *Jacobian* TS model of the differential mean value theorem
+(Ichalal, Arioui, Mammar, MED 2011, eqs. (12)-(18), (34)): :class:`JacobianTS`, built from
+entry bounds (:func:`jacobian_ts_from_bounds`) or from sampled Jacobians
+(:func:`jacobian_ts_from_samples`), the model of the DMVT observer's error dynamics
+(:mod:`vehicle_observers.observers.dmvt`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import product
 from typing import Callable, Sequence
 
 import numpy as np
 
-from vehicle_observers.core.errors import PremiseOutOfBounds
+from vehicle_observers.core.errors import ObserverArgumentError, PremiseOutOfBounds
 
 
 @dataclass(frozen=True)
@@ -183,3 +189,157 @@ class SectorTS:
             "premise_min": z.min(axis=0),
             "premise_max": z.max(axis=0),
         }
+
+
+# ---- Jacobian TS model (Ichalal, Arioui, Mammar, MED 2011, eqs. (12)-(18), (34)) ----------
+# The differential mean value theorem writes ``f(x) - f(xhat) = J(xi) (x - xhat)``; with entry
+# bounds ``a_kl <= J_kl <= b_kl`` (14) the Jacobian is a convex sum of ``2^k`` vertices (18).
+# Vertex ``v`` has varying entry ``l`` at its upper bound iff bit ``l`` of ``v`` is set (entry 0
+# = least significant): for the bicycle (``xi1 = J[3,1]``, ``xi2 = J[3,2]``) ``A1 = (lo, lo)``,
+# ``A2 = (hi, lo)``, ``A3 = (lo, hi)``, ``A4 = (hi, hi)`` as printed in (34).
+
+
+def numerical_jacobian(f: Callable, x, u, h: float = 1e-6) -> np.ndarray:
+    """Central-difference Jacobian ``df/dx`` of ``f(x (N, n), u (N,...)) -> (N, n)``.
+
+    Returns (N, n, n). Step ``h`` is scaled by ``max(1, |x_j|)``. Used to check analytic
+    Jacobians (Ichalal 2011 eq. (31)).
+    """
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    if not np.all(np.isfinite(x)):
+        raise ObserverArgumentError("numerical_jacobian: x contains non-finite values")
+    N, n = x.shape
+    J = np.empty((N, n, n))
+    for j in range(n):
+        hj = h * np.maximum(1.0, np.abs(x[:, j]))
+        dx = np.zeros_like(x)
+        dx[:, j] = hj
+        fp = np.asarray(f(x + dx, u), dtype=float)
+        fm = np.asarray(f(x - dx, u), dtype=float)
+        J[:, :, j] = (fp - fm) / (2 * hj[:, None])
+    return J
+
+
+@dataclass
+class JacobianTS:
+    """Jacobian TS model (Ichalal 2011 eqs. (14)-(18), (34)).
+
+    Attributes
+    ----------
+    A0 : (n, n) constant part (varying entries set to 0).
+    entries : list of (row, col) of the varying entries (0-based).
+    lo, hi : (k,) entry bounds ``a_kl``, ``b_kl`` of (14).
+    names : k names for messages/plots.
+    vertices : (2^k, n, n) vertex matrices ``A_i`` (ordering: see the comment above).
+    """
+
+    A0: np.ndarray
+    entries: list
+    lo: np.ndarray
+    hi: np.ndarray
+    names: list
+    vertices: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        self.A0 = np.array(self.A0, dtype=float)
+        self.lo = np.asarray(self.lo, dtype=float)
+        self.hi = np.asarray(self.hi, dtype=float)
+        n = self.A0.shape[0]
+        if self.A0.shape != (n, n):
+            raise ObserverArgumentError(f"JacobianTS: A0 must be square, got shape "
+                                        f"{self.A0.shape}")
+        k = len(self.entries)
+        if self.lo.shape != (k,) or self.hi.shape != (k,):
+            raise ObserverArgumentError(f"JacobianTS: need {k} lower and upper bounds, got "
+                                        f"{self.lo.shape} and {self.hi.shape}")
+        if len(self.names) != k:
+            raise ObserverArgumentError(f"JacobianTS: {len(self.names)} names for {k} varying "
+                                        "entries")
+        for l, ((r, c), a, b) in enumerate(zip(self.entries, self.lo, self.hi, strict=True)):
+            if not (0 <= r < n and 0 <= c < n):
+                raise ObserverArgumentError(f"JacobianTS: entry {l} = ({r}, {c}) outside a "
+                                            f"{n}x{n} matrix")
+            if not (np.isfinite(a) and np.isfinite(b) and b > a):
+                raise ObserverArgumentError(f"JacobianTS: entry {self.names[l]!r} ({r}, {c}) "
+                                            "needs finite bounds with upper > lower, got "
+                                            f"[{a}, {b}]")
+            self.A0[r, c] = 0.0
+        verts = np.repeat(self.A0[None], 2**k, axis=0)
+        for v in range(2**k):
+            for l, (r, c) in enumerate(self.entries):
+                verts[v, r, c] = self.hi[l] if (v >> l) & 1 else self.lo[l]
+        self.vertices = verts
+
+    @property
+    def q(self) -> int:
+        return len(self.vertices)
+
+    def values(self, J) -> np.ndarray:
+        """Varying entries of Jacobians ``J`` (N, n, n) -> (N, k)."""
+        J = np.asarray(J, dtype=float).reshape(-1, *self.A0.shape)
+        return np.column_stack([J[:, r, c] for r, c in self.entries])
+
+    def weights(self, J, clip: bool = False) -> np.ndarray:
+        """Weights ``h_i`` (16)-(17) of Jacobians ``J`` (N, n, n) -> (N, 2^k).
+
+        Raises :class:`PremiseOutOfBounds` naming the entry and sample if a value leaves its
+        bounds (the TS form is exact only inside them) unless ``clip``.
+        """
+        xi = self.values(J)
+        if clip:
+            xi = np.clip(xi, self.lo, self.hi)
+        else:
+            bad = (xi < self.lo) | (xi > self.hi)
+            if bad.any():
+                n_, l = np.argwhere(bad)[0]
+                raise PremiseOutOfBounds(
+                    f"JacobianTS: entry {self.names[l]!r} = {xi[n_, l]:.6g} at sample {n_} is "
+                    f"outside [{self.lo[l]:.6g}, {self.hi[l]:.6g}]", premise=self.names[l],
+                    index=int(n_), value=float(xi[n_, l]), bounds=(self.lo[l], self.hi[l]))
+        w_hi = (xi - self.lo) / (self.hi - self.lo)          # F^0 in the paper
+        h = np.ones((len(xi), self.q))
+        for v in range(self.q):
+            for l in range(len(self.entries)):
+                h[:, v] *= w_hi[:, l] if (v >> l) & 1 else 1.0 - w_hi[:, l]
+        return h
+
+
+def jacobian_ts_from_bounds(A0, bounds: dict, names: Sequence[str] | None = None) -> JacobianTS:
+    """Jacobian TS model from a constant part and ``{(row, col): (lo, hi)}`` entry bounds."""
+    entries = list(bounds.keys())
+    lo = [bounds[e][0] for e in entries]
+    hi = [bounds[e][1] for e in entries]
+    names = list(names) if names is not None else [f"J[{r},{c}]" for r, c in entries]
+    return JacobianTS(np.asarray(A0, dtype=float), entries, lo, hi, names)
+
+
+def jacobian_ts_from_samples(J, rtol: float = 1e-9, margin: float = 0.0,
+                             names: Sequence[str] | None = None) -> JacobianTS:
+    """Jacobian TS model from Jacobians sampled along trajectories, ``J`` (N, n, n).
+
+    An entry is *varying* when its spread exceeds ``rtol * max(1, |J|_max)``; its bounds
+    are the sampled min/max widened by ``margin`` times the spread on each side (Ichalal
+    2011 eq. (14) with ``a_kl, b_kl`` taken from the simulation). Constant entries form A0.
+    """
+    J = np.asarray(J, dtype=float)
+    if J.ndim != 3 or J.shape[1] != J.shape[2]:
+        raise ObserverArgumentError(f"jacobian_ts_from_samples: J must have shape (N, n, n), "
+                                    f"got {J.shape}")
+    if not np.all(np.isfinite(J)):
+        k = int(np.argwhere(~np.isfinite(J))[0][0])
+        raise ObserverArgumentError(f"jacobian_ts_from_samples: J is not finite at sample {k}")
+    if margin < 0:
+        raise ObserverArgumentError(f"jacobian_ts_from_samples: margin must be >= 0, got "
+                                    f"{margin}")
+    jmin, jmax = J.min(axis=0), J.max(axis=0)
+    spread = jmax - jmin
+    tol = rtol * max(1.0, float(np.abs(J).max()))
+    entries = [tuple(int(i) for i in rc) for rc in np.argwhere(spread > tol)]
+    A0 = J[0].copy()
+    lo = [jmin[r, c] - margin * spread[r, c] for r, c in entries]
+    hi = [jmax[r, c] + margin * spread[r, c] for r, c in entries]
+    if names is not None and len(names) != len(entries):
+        raise ObserverArgumentError(f"jacobian_ts_from_samples: {len(names)} names given for "
+                                    f"{len(entries)} varying entries {entries}")
+    names = list(names) if names is not None else [f"J[{r},{c}]" for r, c in entries]
+    return JacobianTS(A0, entries, lo, hi, names)

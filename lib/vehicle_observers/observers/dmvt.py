@@ -31,169 +31,39 @@ Remark (checked in the tests): with a common ``P`` the LMIs of different ``j`` d
 interact, so the feasible set of every ``K_j`` is the same; ``r > 1`` gains (the paper's
 ``L_1..L_8``) add nothing to feasibility. They are kept for fidelity with (29).
 
-Vertex ordering of the Jacobian TS model (Ichalal 2011, below (34)): vertex ``v`` has entry
-``l`` at its upper bound iff bit ``l`` of ``v`` is set (entry 0 = least significant). For
-the bicycle (``xi1 = J[3,1]``, ``xi2 = J[3,2]``) this gives ``A1 = (lo, lo)``,
-``A2 = (hi, lo)``, ``A3 = (lo, hi)``, ``A4 = (hi, hi)`` and ``h1 = F1^1 F2^1``,
-``h2 = F1^0 F2^1``, ``h3 = F1^1 F2^0``, ``h4 = F1^0 F2^0`` as printed.
+The Jacobian TS model (12)-(18), (34) (entry bounds, vertices and their ordering, weights
+``h1 = F1^1 F2^1``, ``h2 = F1^0 F2^1``, ``h3 = F1^1 F2^0``, ``h4 = F1^0 F2^0`` as printed) is
+:class:`vehicle_observers.models.ts.JacobianTS`; the bicycle (25), its Jacobian (31) and its
+8-rule sector TS model are in :mod:`vehicle_observers.models.bicycle`.
+
+Observer (6) on sampled data: :class:`DMVTObserver` (the observer contract of
+:mod:`vehicle_observers.core.protocol`): RK4 over each sample interval with ``u_k``, ``y_k``
+held (zero-order hold), the compiled ``run`` and the readable numpy ``step`` giving the same
+numbers. :func:`simulate_bicycle_observer` instead co-simulates the plant and the observer
+(``u`` and ``y = C x`` re-evaluated in every RK4 stage): the two differ by O(dt).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from numba import njit
 
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.design.lmi import LMIDesign, LMISolution, Region
-
-# ---- Jacobian TS model (12)-(18) -----------------------------------------------------------
-
-
-def numerical_jacobian(f: Callable, x, u, h: float = 1e-6) -> np.ndarray:
-    """Central-difference Jacobian ``df/dx`` of ``f(x (N, n), u (N,...)) -> (N, n)``.
-
-    Returns (N, n, n). Step ``h`` is scaled by ``max(1, |x_j|)``. Used to check analytic
-    Jacobians (Ichalal 2011 eq. (31)).
-    """
-    x = np.atleast_2d(np.asarray(x, dtype=float))
-    if not np.all(np.isfinite(x)):
-        raise ValueError("numerical_jacobian: x contains non-finite values")
-    N, n = x.shape
-    J = np.empty((N, n, n))
-    for j in range(n):
-        hj = h * np.maximum(1.0, np.abs(x[:, j]))
-        dx = np.zeros_like(x)
-        dx[:, j] = hj
-        fp = np.asarray(f(x + dx, u), dtype=float)
-        fm = np.asarray(f(x - dx, u), dtype=float)
-        J[:, :, j] = (fp - fm) / (2 * hj[:, None])
-    return J
-
-
-@dataclass
-class JacobianTS:
-    """Jacobian TS model (Ichalal 2011 eqs. (14)-(18), (34)).
-
-    Attributes
-    ----------
-    A0 : (n, n) constant part (varying entries set to 0).
-    entries : list of (row, col) of the varying entries (0-based).
-    lo, hi : (k,) entry bounds ``a_kl``, ``b_kl`` of (14).
-    names : k names for messages/plots.
-    vertices : (2^k, n, n) vertex matrices ``A_i`` (ordering: see module docstring).
-    """
-
-    A0: np.ndarray
-    entries: list
-    lo: np.ndarray
-    hi: np.ndarray
-    names: list
-    vertices: np.ndarray = field(init=False)
-
-    def __post_init__(self):
-        self.A0 = np.array(self.A0, dtype=float)
-        self.lo = np.asarray(self.lo, dtype=float)
-        self.hi = np.asarray(self.hi, dtype=float)
-        n = self.A0.shape[0]
-        if self.A0.shape != (n, n):
-            raise ValueError(f"JacobianTS: A0 must be square, got shape {self.A0.shape}")
-        k = len(self.entries)
-        if self.lo.shape != (k,) or self.hi.shape != (k,):
-            raise ValueError(f"JacobianTS: need {k} lower and upper bounds, got "
-                             f"{self.lo.shape} and {self.hi.shape}")
-        if len(self.names) != k:
-            raise ValueError(f"JacobianTS: {len(self.names)} names for {k} varying entries")
-        for l, ((r, c), a, b) in enumerate(zip(self.entries, self.lo, self.hi, strict=True)):
-            if not (0 <= r < n and 0 <= c < n):
-                raise ValueError(f"JacobianTS: entry {l} = ({r}, {c}) outside a {n}x{n} matrix")
-            if not (np.isfinite(a) and np.isfinite(b) and b > a):
-                raise ValueError(f"JacobianTS: entry {self.names[l]!r} ({r}, {c}) needs finite "
-                                 f"bounds with upper > lower, got [{a}, {b}]")
-            self.A0[r, c] = 0.0
-        verts = np.repeat(self.A0[None], 2**k, axis=0)
-        for v in range(2**k):
-            for l, (r, c) in enumerate(self.entries):
-                verts[v, r, c] = self.hi[l] if (v >> l) & 1 else self.lo[l]
-        self.vertices = verts
-
-    @property
-    def q(self) -> int:
-        return len(self.vertices)
-
-    def values(self, J) -> np.ndarray:
-        """Varying entries of Jacobians ``J`` (N, n, n) -> (N, k)."""
-        J = np.asarray(J, dtype=float).reshape(-1, *self.A0.shape)
-        return np.column_stack([J[:, r, c] for r, c in self.entries])
-
-    def weights(self, J, clip: bool = False) -> np.ndarray:
-        """Weights ``h_i`` (16)-(17) of Jacobians ``J`` (N, n, n) -> (N, 2^k).
-
-        Raises ValueError naming the entry and sample if a value leaves its bounds (the
-        TS form is exact only inside them) unless ``clip``.
-        """
-        xi = self.values(J)
-        if clip:
-            xi = np.clip(xi, self.lo, self.hi)
-        else:
-            bad = (xi < self.lo) | (xi > self.hi)
-            if bad.any():
-                n_, l = np.argwhere(bad)[0]
-                raise ValueError(f"JacobianTS: entry {self.names[l]!r} = {xi[n_, l]:.6g} at "
-                                 f"sample {n_} is outside [{self.lo[l]:.6g}, {self.hi[l]:.6g}]")
-        w_hi = (xi - self.lo) / (self.hi - self.lo)          # F^0 in the paper
-        h = np.ones((len(xi), self.q))
-        for v in range(self.q):
-            for l in range(len(self.entries)):
-                h[:, v] *= w_hi[:, l] if (v >> l) & 1 else 1.0 - w_hi[:, l]
-        return h
-
-
-def jacobian_ts_from_bounds(A0, bounds: dict, names: Sequence[str] | None = None) -> JacobianTS:
-    """Jacobian TS model from a constant part and ``{(row, col): (lo, hi)}`` entry bounds."""
-    entries = list(bounds.keys())
-    lo = [bounds[e][0] for e in entries]
-    hi = [bounds[e][1] for e in entries]
-    names = list(names) if names is not None else [f"J[{r},{c}]" for r, c in entries]
-    return JacobianTS(np.asarray(A0, dtype=float), entries, lo, hi, names)
-
-
-def jacobian_ts_from_samples(J, rtol: float = 1e-9, margin: float = 0.0,
-                             names: Sequence[str] | None = None) -> JacobianTS:
-    """Jacobian TS model from Jacobians sampled along trajectories, ``J`` (N, n, n).
-
-    An entry is *varying* when its spread exceeds ``rtol * max(1, |J|_max)``; its bounds
-    are the sampled min/max widened by ``margin`` times the spread on each side (Ichalal
-    2011 eq. (14) with ``a_kl, b_kl`` taken from the simulation). Constant entries form A0.
-    """
-    J = np.asarray(J, dtype=float)
-    if J.ndim != 3 or J.shape[1] != J.shape[2]:
-        raise ValueError(f"jacobian_ts_from_samples: J must have shape (N, n, n), got {J.shape}")
-    if not np.all(np.isfinite(J)):
-        k = int(np.argwhere(~np.isfinite(J))[0][0])
-        raise ValueError(f"jacobian_ts_from_samples: non-finite Jacobian at sample {k}")
-    if margin < 0:
-        raise ValueError(f"margin must be >= 0, got {margin}")
-    jmin, jmax = J.min(axis=0), J.max(axis=0)
-    spread = jmax - jmin
-    tol = rtol * max(1.0, float(np.abs(J).max()))
-    entries = [tuple(int(i) for i in rc) for rc in np.argwhere(spread > tol)]
-    A0 = J[0].copy()
-    lo = [jmin[r, c] - margin * spread[r, c] for r, c in entries]
-    hi = [jmax[r, c] + margin * spread[r, c] for r, c in entries]
-    if names is not None and len(names) != len(entries):
-        raise ValueError(f"{len(names)} names given for {len(entries)} varying entries "
-                         f"{entries}")
-    names = list(names) if names is not None else [f"J[{r},{c}]" for r, c in entries]
-    return JacobianTS(A0, entries, lo, hi, names)
+from vehicle_observers.models.bicycle import BP_C, BP_G, BP_P, BP_V, BicycleParams, plant_rhs
+from vehicle_observers.models.ts import JacobianTS, SectorTS, memberships
+from vehicle_observers.observers.fixed_step import FixedStepObserver, positive, row_names
 
 
 def segment_jacobian_values(jac: Callable, X, Xhat, U, jts: JacobianTS,
                             n_points: int = 5) -> np.ndarray:
     """Varying Jacobian entries on the segments ``[xhat(t), x(t)]`` where the DMVT points
-    ``xi^i`` of (11) lie: shape (N, n_points, k). ``jac(x (N, n), u (N,)) -> (N, n, n)``."""
+    ``xi^i`` of (11) lie: shape (N, n_points, k). ``jac(x (N, n), u (N,)) -> (N, n, n)``;
+    ``jts`` the Jacobian TS model (:class:`~vehicle_observers.models.ts.JacobianTS`)."""
     X, Xhat = np.asarray(X, dtype=float), np.asarray(Xhat, dtype=float)
     out = np.empty((len(X), n_points, len(jts.entries)))
     for m, s in enumerate(np.linspace(0.0, 1.0, n_points)):
@@ -233,7 +103,9 @@ class PoleSummary:
                 "max_modulus": self.max_modulus, "min_damping": self.min_damping}
 
 
-def _regions(region) -> list[Region]:
+def as_regions(region) -> list[Region]:
+    """``region`` (None, a :class:`~vehicle_observers.design.lmi.Region` or a sequence of
+    them) as a list of regions."""
     if region is None:
         return []
     if isinstance(region, Region):
@@ -258,7 +130,7 @@ def check_poles(vertices, L, C, region=None, name: str = "DMVT observer") -> Pol
     offending eigenvalue.
     """
     ps = pole_summary(vertices, L, C)
-    regs = _regions(region)
+    regs = as_regions(region)
     for i in range(ps.eigs.shape[0]):
         for j in range(ps.eigs.shape[1]):
             ev = ps.eigs[i, j]
@@ -293,6 +165,11 @@ class DMVTDesign:
     poles: PoleSummary
     solution: LMISolution
     regions: list
+
+    @property
+    def certificate(self):
+        """The LMI certificate (:class:`vehicle_observers.design.lmi.Certificate`)."""
+        return self.solution.certificate
 
     @property
     def min_margin(self) -> float:
@@ -331,18 +208,27 @@ def design_dmvt_observer(vertices, C, r: int = 1, region=None, P_lower: float = 
     Returns a :class:`DMVTDesign`; raises :class:`InfeasibleDesign` naming the LMIs when the
     solver finds none, :class:`CertificationError` when the solution fails either check.
     """
+    who = "design_dmvt_observer"
     A = np.asarray(vertices, dtype=float)
     C = np.atleast_2d(np.asarray(C, dtype=float))
     if A.ndim != 3 or A.shape[1] != A.shape[2]:
-        raise ValueError(f"vertices must have shape (q, n, n), got {A.shape}")
+        raise ObserverArgumentError(f"{who}: vertices must have shape (q, n, n), got {A.shape}")
     q, n, _ = A.shape
-    if C.shape[1] != n:
-        raise ValueError(f"C must have {n} columns (one per state), got shape {C.shape}")
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(C))):
-        raise ValueError("vertices and C must be finite")
-    if int(r) != r or r < 1:
-        raise ValueError(f"r (number of observer gains) must be a positive integer, got {r}")
-    regs = _regions(region)
+    if C.ndim != 2 or C.shape[1] != n:
+        raise ObserverArgumentError(f"{who}: C must have {n} columns (one per state), got "
+                                    f"shape {C.shape}")
+    if not np.all(np.isfinite(A)):
+        raise ObserverArgumentError(f"{who}: vertices must be finite")
+    if not np.all(np.isfinite(C)):
+        raise ObserverArgumentError(f"{who}: C must be finite")
+    if isinstance(r, bool) or int(r) != r or r < 1:
+        raise ObserverArgumentError(f"{who}: r (number of observer gains) must be a positive "
+                                    f"integer, got {r}")
+    positive(who, "P_lower", P_lower)
+    positive(who, "eps", eps)
+    if K_bound is not None:
+        positive(who, "K_bound", K_bound)
+    regs = as_regions(region)
     p = C.shape[0]
     d = LMIDesign(name, eps=eps)
     d.symmetric("P", n)
@@ -398,7 +284,63 @@ def region_sweep(vertices, C, a_values, R_values, r: int = 1, **kw) -> dict:
             "max_imag": mi, "min_damping": md, "reason": reason}
 
 
-# ---- observer (6) on the bicycle, numba co-simulation --------------------------------------
+def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: float = 0.05,
+                        r: int = 1, check_ends: bool = True, **kw) -> float:
+    """Smallest disk radius ``R`` (to ``tol``) for which (23)+(35)+(36) with half-plane ``a``
+    is feasible and certified, by bisection on ``[R_lo, R_hi]``.
+
+    With ``check_ends`` the ends are tested first: returns ``nan`` if ``R_hi`` is infeasible
+    and ``R_lo`` if ``R_lo`` is feasible. Without it the caller guarantees the bracket
+    (``R_lo`` infeasible, ``R_hi`` feasible, e.g. from :func:`region_sweep`).
+    """
+    from vehicle_observers.design.lmi import disk, halfplane
+
+    who = "min_feasible_radius"
+    positive(who, "R_lo", R_lo, allow_zero=True)
+    positive(who, "tol", tol)
+    if not R_hi > R_lo:
+        raise ObserverArgumentError(f"{who}: need R_hi > R_lo, got [{R_lo}, {R_hi}]")
+
+    def ok(R):
+        try:
+            design_dmvt_observer(vertices, C, r=r, region=[halfplane(a), disk(R)],
+                                 name=f"bisection a={a:g} R={R:g}", **kw)
+            return True
+        except InfeasibleDesign:
+            return False
+
+    if check_ends:
+        if not ok(R_hi):
+            return float("nan")
+        if ok(R_lo):
+            return float(R_lo)
+    lo, hi = float(R_lo), float(R_hi)
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def sweep_brackets(sweep: dict) -> list:
+    """Per half-plane ``a`` of a :func:`region_sweep`: ``(a, R_infeasible, R_feasible)`` with
+    the largest infeasible and the smallest feasible grid radius (rows whose feasible set is
+    not an upper interval of the R grid, or has no feasible/infeasible cell, are skipped)."""
+    out = []
+    for ia, a in enumerate(sweep["a"]):
+        F = sweep["feasible"][ia]
+        if F.all() or not F.any():
+            continue
+        k = int(np.argmax(F))
+        if not F[k:].all():
+            continue
+        out.append((float(a), float(sweep["R"][k - 1]), float(sweep["R"][k])))
+    return out
+
+
+# ---- observer (6): compiled right-hand side ------------------------------------------------
 
 
 @njit(cache=True)
@@ -407,9 +349,10 @@ def observer_rhs(xh, u, y, P, Av, Bv, zmin, zmax, L, C, out):
     + sum_j mu_j L_j (y - C xh)`` with the premises (31)-(33) computed from the *estimate*
     ``xh`` (4,) (unmeasurable premise variables). The model part uses the exact (possibly
     extrapolated) weights, so it equals ``f(xh, u)`` even outside the sector; the gain part
-    the clipped, convex weights. ``P`` = (p, c, v, g, ...), ``Av`` (r, 4, 4), ``Bv`` (r, 4, 1),
-    ``zmin, zmax`` (3,), ``L`` (r or 1, 4, ny), ``C`` (ny, 4), ``y`` (ny,), ``out`` (4,)."""
-    p, c, v, g = P[0], P[1], P[2], P[3]
+    the clipped, convex weights. ``P`` = :meth:`~vehicle_observers.models.bicycle.BicycleParams.as_array`,
+    ``Av`` (r, 4, 4), ``Bv`` (r, 4, 1), ``zmin, zmax`` (3,), ``L`` (r or 1, 4, ny), ``C`` (ny, 4),
+    ``y`` (ny,), ``out`` (4,)."""
+    p, c, v, g = P[BP_P], P[BP_C], P[BP_V], P[BP_G]
     x2h, x3h = xh[1], xh[2]
     z = np.empty(3)
     z[0] = g / p * (np.sin(x3h) / x3h if abs(x3h) > 1e-8 else 1.0)
@@ -444,40 +387,139 @@ def observer_rhs(xh, u, y, P, Av, Bv, zmin, zmax, L, C, out):
             out[i] += w * acc + wc * gain
 
 
-def observer_step(xh, u, y, ts, L, C) -> np.ndarray:
-    """Observer (6) of Ichalal 2011, readable numpy version of :func:`observer_rhs`.
 
-    ``xh`` (4,) estimate, ``u`` scalar input, ``y`` (ny,) measurement, ``ts`` the 8-rule
-    sector TS model (:func:`vehicle_observers.models.bicycle.bicycle_ts`), ``L`` (r or 1, 4,
-    ny), ``C`` (ny, 4). Returns ``dxhat/dt`` (4,)::
+def _check_gains(who: str, C, L, n_rules: int):
+    """``(C (ny, 4), L (r, 4, ny))`` as contiguous arrays with ``r`` = 1 or ``n_rules``;
+    :class:`ObserverArgumentError` naming the argument otherwise."""
+    C = np.ascontiguousarray(np.atleast_2d(C), dtype=float)
+    L = np.ascontiguousarray(L, dtype=float)
+    if C.ndim != 2 or C.shape[1] != 4 or not np.all(np.isfinite(C)):
+        raise ObserverArgumentError(f"{who}: C must have shape (ny, 4) (one column per bicycle "
+                                    f"state), finite, got {C.shape}")
+    ny = C.shape[0]
+    if L.ndim != 3 or L.shape[1:] != (4, ny) or L.shape[0] not in (1, n_rules):
+        raise ObserverArgumentError(f"{who}: L must have shape (r, 4, ny) with r = {n_rules} "
+                                    f"rules or 1, ny = {ny}, got {L.shape}")
+    if not np.all(np.isfinite(L)):
+        raise ObserverArgumentError(f"{who}: L must be finite")
+    return C, L
 
-        zhat = z(xhat)                          premises from the estimate (unmeasurable)
-        model = sum_i mu_i(zhat) (A_i xhat + B_i u)       (= f(xhat, u), exact weights)
-        gain  = sum_j mu_j(clip(zhat)) L_j               (convex blend of the gains)
-        dxhat/dt = model + gain (y - C xhat)
+
+# ---- observer (6) on sampled data: the observer contract -----------------------------------
+@njit(cache=True)
+def _dmvt_run(xh0, Y, U, dt, P, Av, Bv, zmin, zmax, L, C):
+    """Observer (6) on sampled data: RK4 of :func:`observer_rhs` over each interval with
+    ``U[k]``, ``Y[k]`` held; row ``k`` of the result is the estimate at ``t_k``."""
+    N = Y.shape[0]
+    Xh = np.empty((N, 4))
+    s = xh0.copy()
+    k1, k2, k3, k4, tmp = np.empty(4), np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    for k in range(N):
+        Xh[k] = s
+        if k == N - 1:
+            break
+        observer_rhs(s, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k1)
+        for i in range(4):
+            tmp[i] = s[i] + 0.5 * dt * k1[i]
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k2)
+        for i in range(4):
+            tmp[i] = s[i] + 0.5 * dt * k2[i]
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k3)
+        for i in range(4):
+            tmp[i] = s[i] + dt * k3[i]
+        observer_rhs(tmp, U[k], Y[k], P, Av, Bv, zmin, zmax, L, C, k4)
+        for i in range(4):
+            s[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    return Xh
+
+
+@dataclass(frozen=True)
+class DMVTGains:
+    """Gains ``L`` (r, 4, ny) of observer (6) given without their LMI design (``certificate``
+    None), e.g. to run a gain of another design study."""
+
+    L: np.ndarray
+    certificate: None = None
+
+
+class DMVTObserver(FixedStepObserver):
+    """Observer (6) of Ichalal, Arioui, Mammar (MED 2011) for the bicycle (25) on sampled data.
+
+    ``design``: a :class:`DMVTDesign` of LMIs (23) (+ (35)-(36)) or the gains ``L`` (r, 4,
+    ny), r = 1 or ``ts.n_rules``; ``ts``: the 8-rule sector TS model of the bicycle
+    (:func:`vehicle_observers.models.bicycle.bicycle_ts`), whose premises the observer
+    evaluates at its own estimate (unmeasurable premises, Sec. IV); ``params``:
+    :class:`~vehicle_observers.models.bicycle.BicycleParams`; ``C`` (ny, 4) output matrix (28);
+    ``dt`` [s] sample period.
+
+    Data: ``u`` (N, 1) the input of (27) (normalised steering torque, known to the observer),
+    ``y`` (N, ny) = ``C x`` (+ noise). Each interval is one RK4 step of (6) with ``u_{k-1}``,
+    ``y_{k-1}`` held (zero-order hold). ``x0`` (4,) initial estimate, default 0.
     """
-    from vehicle_observers.models.ts import memberships
 
-    xh = np.asarray(xh, dtype=float)
-    z = ts.premise_fn(xh[None], np.array([[u]]))[0]
-    mu = memberships(z, ts.zmin, ts.zmax)
-    mu_clip = memberships(np.clip(z, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
-    A, B = ts.blend(mu)
-    gain = np.tensordot(mu_clip, L, axes=1) if len(L) == len(mu) else L[0]
-    return A @ xh + B[:, 0] * u + gain @ (np.asarray(y, dtype=float) - C @ xh)
+    state_names = ("beta_rad", "psi_beta_1pm", "alpha_rad", "psi_alpha_radps")
+    input_names = ("u_norm",)
+
+    def __init__(self, design, ts: SectorTS, params: BicycleParams, C, dt: float):
+        super().__init__(dt)
+        L = design.L if isinstance(design, DMVTDesign) else design
+        self.C, self.L = _check_gains(type(self).__name__, C, L, ts.n_rules)
+        self.design = design if isinstance(design, DMVTDesign) else DMVTGains(self.L)
+        self.ts, self.params = ts, params
+        self.output_names = row_names(self.C, self.state_names)
+        self._P = params.as_array()
+        self._Av, self._Bv = np.ascontiguousarray(ts.A), np.ascontiguousarray(ts.B)
+
+    def rhs(self, xh, u: float, y) -> np.ndarray:
+        """``dxhat/dt`` of (6), readable numpy (the compiled twin is :func:`observer_rhs`)::
+
+            zhat  = z(xhat)                                   premises from the estimate
+            model = sum_i mu_i(zhat) (A_i xhat + B_i u)       (= f(xhat, u), exact weights)
+            gain  = sum_j mu_j(clip(zhat)) L_j                (convex blend of the gains)
+            dxhat/dt = model + gain (y - C xhat)
+
+        ``xh`` (4,), ``u`` scalar, ``y`` (ny,)."""
+        ts = self.ts
+        z = ts.premise_fn(np.asarray(xh, dtype=float)[None], np.array([[u]]))[0]
+        mu = memberships(z, ts.zmin, ts.zmax)
+        mu_clip = memberships(np.clip(z, ts.zmin, ts.zmax), ts.zmin, ts.zmax)
+        A, B = ts.blend(mu)
+        gain = np.tensordot(mu_clip, self.L, axes=1) if len(self.L) == len(mu) else self.L[0]
+        return A @ xh + B[:, 0] * u + gain @ (np.asarray(y, dtype=float) - self.C @ xh)
+
+    def initial_state(self, t, u, y, x0=None) -> np.ndarray:
+        return np.zeros(4) if x0 is None else np.array(x0, dtype=float)
+
+    def step(self, z, k, t, u, y) -> np.ndarray:
+        """Observer (6) (Ichalal 2011) over ``[t_{k-1}, t_k]``: one classical RK4 step of
+        :meth:`rhs` with ``u_{k-1}``, ``y_{k-1}`` held; ``z`` is the estimate (4,)."""
+        h, uk, yk = self.dt, float(u[k - 1, 0]), y[k - 1]
+        k1 = self.rhs(z, uk, yk)
+        k2 = self.rhs(z + 0.5 * h * k1, uk, yk)
+        k3 = self.rhs(z + 0.5 * h * k2, uk, yk)
+        k4 = self.rhs(z + h * k3, uk, yk)
+        return z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+    def estimate(self, z) -> np.ndarray:
+        return np.asarray(z, dtype=float)
+
+    def run(self, t, u, y, x0=None) -> Trajectory:
+        """The compiled loop (``_dmvt_run``): the numbers of :meth:`step` looped."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        xh0 = self.initial_state(t, u, y, x0)
+        sec, Xh = self.timed(_dmvt_run, xh0, y, np.ascontiguousarray(u[:, 0]), self.dt,
+                             self._P, self._Av, self._Bv, self.ts.zmin, self.ts.zmax, self.L,
+                             self.C)
+        return self.trajectory(t, Xh, seconds=sec)
 
 
+# ---- plant and observer co-simulation (Figs. 4-5) ---------------------------------------
 @njit(cache=True)
 def _bike_rhs(s, t, P, Av, Bv, zmin, zmax, L, C, out):
-    """Plant (25)+(27) (states 0..3) and observer (6) (states 4..7, :func:`observer_rhs`
-    with ``y = C x``)."""
-    p, c, v, g, k1, k2 = P[0], P[1], P[2], P[3], P[4], P[5]
-    u = -k1 * (s[2] - np.sin(t)) - k2 * (s[3] - np.cos(t))
-    out[0] = s[1] * v
-    out[1] = u
-    out[2] = s[3]
-    out[3] = (g * np.sin(s[2]) + (1 + p * s[1] * np.sin(s[2])) * np.cos(s[2]) * s[1] * v * v
-              + c * np.cos(s[2]) * v * u) / p
+    """Plant (25)+(27) (states 0..3, the compiled
+    :func:`vehicle_observers.models.bicycle.plant_rhs`) and observer (6) (states 4..7,
+    :func:`observer_rhs` with ``y = C x``)."""
+    u = plant_rhs(s, t, P, out)
     ny = C.shape[0]
     y = np.empty(ny)
     for k in range(ny):
@@ -536,248 +578,16 @@ def simulate_bicycle_observer(bp, t, ts, L, C, x0=(0.0, 0.0, 0.0, 0.0),
     Parameters: ``L`` (r, 4, 2) with r = 1 or r = ts.n_rules; ``C`` (2, 4).
     Returns (X (N, 4), Xhat (N, 4), u (N,)).
     """
+    who = "simulate_bicycle_observer"
     t = np.ascontiguousarray(t, dtype=float)
-    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) <= 0):
-        raise ValueError("time grid t must be 1-D, with >= 2 strictly increasing samples")
-    L = np.ascontiguousarray(L, dtype=float)
-    C = np.ascontiguousarray(np.atleast_2d(C), dtype=float)
-    if C.shape[1] != 4:
-        raise ValueError(f"C must have 4 columns (bicycle states), got shape {C.shape}")
-    if L.ndim != 3 or L.shape[1:] != (4, C.shape[0]) or L.shape[0] not in (1, ts.n_rules):
-        raise ValueError(f"L must have shape (1 or {ts.n_rules}, 4, {C.shape[0]}), got "
-                         f"{L.shape}")
+    if t.ndim != 1 or len(t) < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ObserverArgumentError(f"{who}: the time grid t must be 1-D and finite, with >= 2 "
+                                    "strictly increasing samples (a time step dt <= 0)")
+    C, L = _check_gains(who, C, L, ts.n_rules)
+    for name, v in (("x0", x0), ("xhat0", xhat0)):
+        if np.shape(v) != (4,) or not np.all(np.isfinite(v)):
+            raise ObserverArgumentError(f"{who}: {name} must be 4 finite values, got {v}")
     s0 = np.concatenate([np.asarray(x0, dtype=float), np.asarray(xhat0, dtype=float)])
-    if s0.shape != (8,):
-        raise ValueError("x0 and xhat0 must each have 4 entries")
     S, U = _bike_obs_sim(s0, t, bp.as_array(), np.ascontiguousarray(ts.A),
                          np.ascontiguousarray(ts.B), ts.zmin, ts.zmax, L, C)
     return S[:, :4], S[:, 4:], U
-
-
-def error_metrics(t, X, Xhat, band: float = 0.02) -> dict:
-    """Per-state error overshoot (relative to |e(0)|) and ``band`` settling time [s]
-    (band relative to max |e|), using :mod:`vehicle_observers.core.metrics`."""
-    from vehicle_observers.core.metrics import overshoot, settling_time
-
-    E = np.asarray(X) - np.asarray(Xhat)
-    return {"overshoot": np.array([overshoot(E[:, i]) for i in range(E.shape[1])]),
-            "settling": np.array([settling_time(t, E[:, i], band=band)
-                                  for i in range(E.shape[1])]),
-            "max_abs": np.abs(E).max(axis=0)}
-
-
-def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: float = 0.05,
-                        r: int = 1, check_ends: bool = True, **kw) -> float:
-    """Smallest disk radius ``R`` (to ``tol``) for which (23)+(35)+(36) with half-plane ``a``
-    is feasible and certified, by bisection on ``[R_lo, R_hi]``.
-
-    With ``check_ends`` the ends are tested first: returns ``nan`` if ``R_hi`` is infeasible
-    and ``R_lo`` if ``R_lo`` is feasible. Without it the caller guarantees the bracket
-    (``R_lo`` infeasible, ``R_hi`` feasible, e.g. from :func:`region_sweep`).
-    """
-    from vehicle_observers.design.lmi import disk, halfplane
-
-    if not R_hi > R_lo:
-        raise ValueError(f"need R_hi > R_lo, got [{R_lo}, {R_hi}]")
-
-    def ok(R):
-        try:
-            design_dmvt_observer(vertices, C, r=r, region=[halfplane(a), disk(R)],
-                                 name=f"bisection a={a:g} R={R:g}", **kw)
-            return True
-        except InfeasibleDesign:
-            return False
-
-    if check_ends:
-        if not ok(R_hi):
-            return float("nan")
-        if ok(R_lo):
-            return float(R_lo)
-    lo, hi = float(R_lo), float(R_hi)
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        if ok(mid):
-            hi = mid
-        else:
-            lo = mid
-    return hi
-
-
-def sweep_brackets(sweep: dict) -> list:
-    """Per half-plane ``a`` of a :func:`region_sweep`: ``(a, R_infeasible, R_feasible)`` with
-    the largest infeasible and the smallest feasible grid radius (rows whose feasible set is
-    not an upper interval of the R grid, or has no feasible/infeasible cell, are skipped)."""
-    out = []
-    for ia, a in enumerate(sweep["a"]):
-        F = sweep["feasible"][ia]
-        if F.all() or not F.any():
-            continue
-        k = int(np.argmax(F))
-        if not F[k:].all():
-            continue
-        out.append((float(a), float(sweep["R"][k - 1]), float(sweep["R"][k])))
-    return out
-
-
-def initial_error_study(bp, t, ts, designs: dict, C, n: int, scale, seed: int = 0,
-                        x0=(0.0, 0.0, 0.0, 0.0)) -> dict:
-    """Observer runs from ``n`` random initial errors ``e0 ~ U(-scale, scale)`` (per state,
-    drawn from ``np.random.default_rng(seed)``), the same draws for every design.
-
-    Returns ``{design name: {"overshoot": (n, 4), "settling": (n, 4)}}`` and ``"e0"`` (n, 4).
-    """
-    rng = np.random.default_rng(seed)
-    scale = np.asarray(scale, dtype=float)
-    E0 = rng.uniform(-1.0, 1.0, size=(n, 4)) * scale
-    out: dict = {"e0": E0}
-    for name, des in designs.items():
-        ov, st = np.empty((n, 4)), np.empty((n, 4))
-        for k, e0 in enumerate(E0):
-            X, Xh, _ = simulate_bicycle_observer(bp, t, ts, des.L, C, x0=x0,
-                                                 xhat0=np.asarray(x0) - e0)
-            m = error_metrics(t, X, Xh)
-            ov[k], st[k] = m["overshoot"], m["settling"]
-        out[name] = {"overshoot": ov, "settling": st}
-    return out
-
-
-# ---- figures (used by notebook 04) ----------------------------------------------------------
-
-
-def plot_poles(ax, designs: dict, region=None, colors=("C3", "C0", "C2", "C1"),
-               legend: bool = True):
-    """Closed-loop eigenvalues [1/s] of every vertex pair of each design and the region
-    (35)-(36) drawn, equal aspect (a disk is a circle); legend below the axes."""
-    for (name, des), col in zip(designs.items(), colors, strict=False):
-        ev = des.poles.eigs.ravel()
-        ax.plot(ev.real, ev.imag, "x" if "no" in name else "o", color=col, ms=5, mfc="none",
-                label=f"{name}: max $|\\mathrm{{Im}}\\,\\lambda|$ {des.poles.max_imag:.1f} 1/s, "
-                      f"min $\\zeta$ {des.poles.min_damping:.2f}")
-    for reg in _regions(region):
-        if reg.L.shape == (1, 1):       # half-plane Re z < -a
-            a = reg.L[0, 0] / 2
-            ax.axvline(-a, color="k", ls="--", lw=0.9, label=f"(35): Re $z = -{a:g}$")
-        elif reg.L.shape == (2, 2) and reg.L[0, 0] != 0:   # disk
-            R, q = -reg.L[0, 0], -reg.L[0, 1]
-            th = np.linspace(0, 2 * np.pi, 300)
-            ax.plot(q + R * np.cos(th), R * np.sin(th), "k:", lw=0.9, label=f"(36): $|z| = {R:g}$")
-    ax.axvline(0, color="0.5", lw=0.6)
-    ax.set_xlabel(r"Re $\lambda$ [1/s]")
-    ax.set_ylabel(r"Im $\lambda$ [1/s]")
-    ax.set_aspect("equal", adjustable="datalim")
-    if legend:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=1, frameon=False)
-    return ax
-
-
-def plot_sweep(ax, sweep: dict, chosen=None):
-    """Feasibility map of the region sweep: feasible cells light blue and annotated with
-    max |Im lambda| [1/s], infeasible cells light orange."""
-    from matplotlib.patches import Rectangle
-
-    F = sweep["feasible"]
-    a, R = sweep["a"], sweep["R"]
-    from matplotlib.colors import ListedColormap
-
-    # colour-blind safe (tableau-colorblind10): light orange infeasible, light blue feasible
-    ax.imshow(F.T.astype(float), origin="lower", cmap=ListedColormap(["#FFBC79", "#A2C8EC"]),
-              vmin=0, vmax=1, aspect="auto", extent=(-0.5, len(a) - 0.5, -0.5, len(R) - 0.5))
-    for ia in range(len(a)):
-        for iR in range(len(R)):
-            txt = f"{sweep['max_imag'][ia, iR]:.1f}" if F[ia, iR] else "infeas."
-            ax.text(ia, iR, txt, ha="center", va="center", fontsize=7)
-    ax.set_xticks(range(len(a)), [f"{x:g}" for x in a])
-    ax.set_yticks(range(len(R)), [f"{x:g}" for x in R])
-    ax.set_xlabel("half-plane $a$ [1/s] (Re $z < -a$)")
-    ax.set_ylabel("disk radius $R$ [1/s] ($|z| < R$)")
-    ax.grid(False)
-    if chosen is not None:
-        ia = int(np.argmin(np.abs(a - chosen[0])))
-        iR = int(np.argmin(np.abs(R - chosen[1])))
-        ax.add_patch(Rectangle((ia - 0.5, iR - 0.5), 1, 1, fill=False, lw=2, ec="k"))
-    return ax
-
-
-STATE_LABELS = (r"$x_1 = \beta$ [rad]", r"$x_2 = \psi_\beta$ [1/m]", r"$x_3 = \alpha$ [rad]",
-                r"$x_4 = \psi_\alpha$ [rad/s]")
-
-
-def plot_estimates(axs, t, X, Xhat, label="estimate", color="C1", truth=True):
-    """Four panels: state ``X[:, i]`` and its estimate ``Xhat[:, i]`` (decimated)."""
-    from vehicle_observers.core.arrays import decimate
-
-    td, Xd, Xhd = decimate(t, X, Xhat, max_points=1500)
-    for i, ax in enumerate(np.ravel(axs)[:4]):
-        if truth:
-            ax.plot(td, Xd[:, i], "k", lw=1.2, label="state")
-        ax.plot(td, Xhd[:, i], "--", color=color, label=label)
-        ax.set_ylabel(STATE_LABELS[i])
-    np.ravel(axs)[0].legend(loc="best")
-    for ax in np.ravel(axs)[-2:]:
-        ax.set_xlabel("t [s]")
-    return axs
-
-
-def printed_jacobian_entries(X, U, include_third: bool = False) -> np.ndarray:
-    """Literal transcription of Ichalal 2011 eqs. (32)-(33) along states ``X`` (N, 4) and
-    inputs ``U`` (N,), with ``z2 -> x2``, ``z3 -> x3`` (the printed ``z`` are the DMVT points):
-
-        (32)  100 cos x3 x2 sin x3 + 100 cos x3 sin x3 (+ 1/3)
-        (33)  16.35 cos x3 + 100 x2^2 cos^2 x3 - 8.33 u sin x3 - 100 x2^2 sin^2 x3 (+ 1/3)
-
-    The trailing ``+ 1/3`` (garbled in the extraction) is added when ``include_third``.
-    Returns (N, 2). Used only to explain the printed premise bounds: (33) lacks the term
-    ``-(v^2/p) x2 sin x3`` of the exact derivative and (32) does not match ``(v^2/p) cos x3
-    (1 + 2 p x2 sin x3)`` at all (it vanishes at x3 = 0 where the exact value is v^2/p).
-    """
-    X = np.atleast_2d(np.asarray(X, dtype=float))
-    U = np.ravel(U)
-    x2, x3 = X[:, 1], X[:, 2]
-    extra = 1.0 / 3.0 if include_third else 0.0
-    xi1 = 100 * np.cos(x3) * x2 * np.sin(x3) + 100 * np.cos(x3) * np.sin(x3) + extra
-    xi2 = (16.35 * np.cos(x3) + 100 * x2**2 * np.cos(x3) ** 2 - 8.33 * U * np.sin(x3)
-           - 100 * x2**2 * np.sin(x3) ** 2 + extra)
-    return np.column_stack([xi1, xi2])
-
-
-def plot_tracking(axs, t, X, U):
-    """Fig. 3 analogue: x3 vs sin t, x4 vs cos t, and the input u of (27)."""
-    from vehicle_observers.core.arrays import decimate
-
-    td, x3, x4, u = decimate(t, X[:, 2], X[:, 3], U, max_points=1500)
-    axs[0].plot(td, x3, label=r"$x_3 = \alpha$")
-    axs[0].plot(td, np.sin(td), "k--", label=r"$x_{3d} = \sin t$")
-    axs[1].plot(td, x4, label=r"$x_4$")
-    axs[1].plot(td, np.cos(td), "k--", label=r"$x_{4d} = \cos t$")
-    axs[2].plot(td, u, "C2")
-    axs[0].set_ylabel("roll [rad]")
-    axs[1].set_ylabel("roll rate [rad/s]")
-    axs[2].set_ylabel("$u$ [normalised]")
-    axs[2].set_xlabel("t [s]")
-    for ax in axs[:2]:
-        ax.legend(loc="upper right")
-    return axs
-
-
-def plot_jacobian_bounds(axs, t, xi, jts: JacobianTS, printed_bounds, xi_printed=None,
-                         units=None):
-    """Varying Jacobian entries ``xi`` (N, k) with the derived (``jts``) and printed bounds;
-    ``xi_printed`` (N, k) optionally overlays the printed formulas (NaN columns skipped);
-    ``units`` (k,) the axis-label unit of each entry (none when omitted: the entries of one
-    Jacobian generally have different units)."""
-    from vehicle_observers.core.arrays import decimate
-
-    td, xd = decimate(t, xi, max_points=1500)
-    pd = None if xi_printed is None else decimate(t, xi_printed, max_points=1500)[1]
-    for l, ax in enumerate(np.ravel(axs)):
-        ax.plot(td, xd[:, l], label=rf"$\xi_{l + 1}$ exact")
-        if pd is not None and np.all(np.isfinite(pd[:, l])):
-            ax.plot(td, pd[:, l], "C2", label="printed (33), literal")
-        for k, v in enumerate((jts.lo[l], jts.hi[l])):
-            ax.axhline(v, color="C0", ls=":", label="derived bounds" if k else None)
-        for k, v in enumerate(printed_bounds[l]):
-            ax.axhline(v, color="C3", ls="--", label="printed bounds" if k else None)
-        ax.set_ylabel(rf"$\xi_{l + 1}$" + (f" [{units[l]}]" if units is not None else ""))
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    np.ravel(axs)[-1].set_xlabel("t [s]")
-    return axs

@@ -4,7 +4,13 @@ Part A: tyre-force observer with adaptive force model, eqs. (9)-(22)
 Part B: sliding-mode unknown-input observer of the road profile, eqs. (30)-(38)
 
 Both are discrete-time loops (explicit Euler at the measurement period ``dt``) compiled
-with numba. The switching function is selectable (``mode``):
+with numba, and follow the observer contract of :mod:`vehicle_observers.core.protocol`
+(:class:`ForceObserver`, :class:`RoadObserver`, and :class:`PaperOutputObserver` for the
+road on the paper's outputs (29)): a readable numpy ``step`` and a compiled ``run`` giving
+the same numbers, runs returning a :class:`~vehicle_observers.core.protocol.Trajectory`
+subclass whose paper-named properties (``x2``, ``x4``, ``theta``, ``U``, ``zeta``, ...) are
+views of its columns. The gains are rules (no LMI): their ``certificate`` is ``None``.
+The switching function is selectable (``mode``):
 
 * ``SIGN`` (0): the paper's ``sign`` (chattering of amplitude ``lambda dt`` in the
   observed states, full-amplitude switching in the injected terms);
@@ -46,13 +52,25 @@ R-A7  The Lyapunov weight called ``G`` in (20)-(22) (a name clash with the wheel
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
 
-from vehicle_observers.core.metrics import rmse
-from vehicle_observers.models.planar import IR, IVX, IVY, IWF, IWR, PlanarParams
+from vehicle_observers.core.errors import CertificationError, ObserverArgumentError
+from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.models.fullcar import (
+    OUT_X11,
+    OUT_X12,
+    OUT_X22,
+    PAPER_X12,
+    PAPER_X22,
+    PAPER_X31,
+    FullCarParams,
+)
+from vehicle_observers.models.planar import IU_DELTA, IU_TF, IU_TR, PlanarParams
+from vehicle_observers.observers.fixed_step import FixedStepObserver, positive, positive_array
 
 SIGN, SAT, LPF = 0, 1, 2
 MODES = {"sign": SIGN, "sat": SAT, "lpf": LPF}
@@ -61,10 +79,10 @@ MODES = {"sign": SIGN, "sat": SAT, "lpf": LPF}
 def _mode(mode) -> int:
     if isinstance(mode, str):
         if mode not in MODES:
-            raise ValueError(f"mode must be one of {list(MODES)}, got {mode!r}")
+            raise ObserverArgumentError(f"mode must be one of {list(MODES)}, got {mode!r}")
         return MODES[mode]
     if int(mode) not in (0, 1, 2):
-        raise ValueError(f"mode must be 0 (sign), 1 (sat) or 2 (lpf), got {mode}")
+        raise ObserverArgumentError(f"mode must be 0 (sign), 1 (sat) or 2 (lpf), got {mode}")
     return int(mode)
 
 
@@ -85,13 +103,32 @@ def _sw(e, phi, mode):
     return 0.0
 
 
+def _sw_np(e, phi, mode):
+    """Switching function of :func:`_sw` on arrays."""
+    return np.clip(e / phi, -1.0, 1.0) if mode == SAT else np.sign(e)
+
+
 # ================================================================== Part A =================
+#: index of each constant in :meth:`ForceObserverModel.as_array` (read by the kernels)
+FM_M, FM_JZ, FM_LF, FM_LR, FM_RF, FM_RR, FM_JF, FM_JR, FM_CKF, FM_CKR, FM_CAF, FM_CAR = range(12)
+#: columns of the measurements ``y = [v_x, v_y, r, omega_f, omega_r]`` (the order of
+#: :func:`vehicle_observers.models.planar.measurements`)
+Y_VX, Y_VY, Y_R, Y_WF, Y_WR = range(5)
+#: entries of the force vector ``x4 = [F_xf, F_xr, F_yf, F_yr]``
+F_XF, F_XR, F_YF, F_YR = range(4)
+#: internal state of :class:`ForceObserver`: ``[x2 (3), x3 (2), x4 (4), theta (8), x~4_eq
+#: filtered (4)]``, blocks starting at these indices
+Z_X2, Z_X3, Z_X4, Z_TH, Z_E4F, Z_END = 0, 3, 5, 9, 17, 21
+
+
 @dataclass(frozen=True)
 class ForceObserverModel:
     """Observer-side model constants (may differ from the truth to test robustness).
 
-    Slip stiffnesses are the per-axle tangent slopes at zero slip used in (8):
-    ``C_kf, C_kr`` [N] (longitudinal), ``C_af, C_ar`` [N/rad] (lateral).
+    m [kg], J_z [kg m^2], l_f, l_r [m], wheel radii r_f, r_r [m], axle spin inertias J_f, J_r
+    [kg m^2]; slip stiffnesses, the per-axle tangent slopes at zero slip used in (8):
+    ``C_kf, C_kr`` [N] (longitudinal), ``C_af, C_ar`` [N/rad] (lateral); relaxation lengths
+    sigma_x, sigma_y [m]. Every constant must be finite and > 0.
     """
 
     m: float
@@ -109,6 +146,10 @@ class ForceObserverModel:
     sigma_x: float
     sigma_y: float
 
+    def __post_init__(self):
+        for name, v in vars(self).items():
+            positive("ForceObserverModel", name, v)
+
     @classmethod
     def from_params(cls, p: PlanarParams, **errors) -> "ForceObserverModel":
         """Nominal observer model from the truth constants; ``errors`` are relative errors,
@@ -119,12 +160,13 @@ class ForceObserverModel:
                     sigma_y=p.sigma_y)
         for k, v in errors.items():
             if k not in base:
-                raise ValueError(f"unknown observer-model parameter {k!r}; expected one of "
-                                 f"{sorted(base)}")
+                raise ObserverArgumentError(f"unknown observer-model parameter {k!r}; expected "
+                                            f"one of {sorted(base)}")
             base[k] = base[k] * (1.0 + float(v))
         return cls(**base)
 
     def as_array(self) -> np.ndarray:
+        """The constants packed for the kernels, indices :data:`FM_M` ... :data:`FM_CAR`."""
         return np.array([self.m, self.J_z, self.l_f, self.l_r, self.r_f, self.r_r, self.J_f,
                          self.J_r, self.C_kf, self.C_kr, self.C_af, self.C_ar], dtype=float)
 
@@ -136,14 +178,18 @@ class ForceObserverModel:
 
 @dataclass(frozen=True)
 class ForceObserverGains:
-    """Gains of observer (10). Defaults are the notebook's design (see ``design_note``).
+    """Gains of observer (10): the design of :class:`ForceObserver` (a gain rule, no LMI:
+    ``certificate`` is ``None``). Defaults are the notebook's design (see ``design_note``).
 
-    lam2 (3,) [m/s^2, m/s^2, rad/s^2] must exceed ``|Omega x~4|`` (13);
-    lam3 (2,) [rad/s^2] must exceed ``|H x~4x|`` (16);
-    k (4,) [1/s] the diagonal of ``K`` in ``A = K + v_x F`` (19);
-    P (8,) adaptation gains; theta bounds (8,) for the projection;
-    phi2 (3,), phi3 (2,) boundary-layer widths (mode SAT); tau_f [s] injection filter.
+    lam2 (3,) [m/s^2, m/s^2, rad/s^2] > 0 must exceed ``|Omega x~4|`` (13);
+    lam3 (2,) [rad/s^2] > 0 must exceed ``|H x~4x|`` (16);
+    k (4,) [1/s] >= 0 the diagonal of ``K`` in ``A = K + v_x F`` (19);
+    P (8,) adaptation gains (any sign: the paper's printed sign is ``-P``); theta bounds
+    (8,) for the projection, ``theta_lo < theta_hi``;
+    phi2 (3,), phi3 (2,) > 0 boundary-layer widths (mode SAT); tau_f [s] > 0 injection filter.
     """
+
+    certificate: ClassVar[None] = None
 
     lam2: tuple = (4.0, 4.0, 3.0)
     lam3: tuple = (500.0, 500.0)
@@ -164,17 +210,31 @@ class ForceObserverGains:
         "natural frequency v_x sqrt(P) ~ 45 rad/s at 20 m/s, below K + v_x/sigma; P = 20 "
         "makes the lateral loops unstable at 1 kHz-2 kHz sampling (measured)."), compare=False)
 
-    def with_(self, **kw) -> "ForceObserverGains":
-        from dataclasses import replace
+    def __post_init__(self):
+        who = "ForceObserverGains"
+        object.__setattr__(self, "mode", _mode(self.mode))
+        for name, n, zero in (("lam2", 3, False), ("lam3", 2, False), ("k", 4, True),
+                              ("phi2", 3, False), ("phi3", 2, False)):
+            positive_array(who, name, getattr(self, name), (n,), allow_zero=zero)
+        positive(who, "tau_f", self.tau_f)
+        for name in ("P", "theta_lo", "theta_hi"):
+            a = np.asarray(getattr(self, name), dtype=float)
+            if a.shape != (8,) or not np.all(np.isfinite(a)):
+                raise ObserverArgumentError(f"{who}: {name} must be 8 finite values, got "
+                                            f"{getattr(self, name)}")
+        if not np.all(np.asarray(self.theta_lo) < np.asarray(self.theta_hi)):
+            raise ObserverArgumentError(f"{who}: need theta_lo < theta_hi entry by entry, got "
+                                        f"{self.theta_lo} and {self.theta_hi}")
 
-        if "mode" in kw:
-            kw["mode"] = _mode(kw["mode"])
+    def with_(self, **kw) -> "ForceObserverGains":
         return replace(self, **kw)
 
 
 @njit(cache=True)
 def _omega_h(delta, Q, Om, Hm):
-    m, Jz, lf, lr, rf, rr, Jf, Jr = Q[0], Q[1], Q[2], Q[3], Q[4], Q[5], Q[6], Q[7]
+    """``Omega(delta)`` (3, 4) and ``H`` (2, 4) of (9) (R-A4) into ``Om``, ``Hm``."""
+    m, Jz, lf, lr = Q[FM_M], Q[FM_JZ], Q[FM_LF], Q[FM_LR]
+    rf, rr, Jf, Jr = Q[FM_RF], Q[FM_RR], Q[FM_JF], Q[FM_JR]
     c, s = np.cos(delta), np.sin(delta)
     Om[0, 0] = c / m
     Om[0, 1] = 1.0 / m
@@ -197,9 +257,10 @@ def _omega_h(delta, Q, Om, Hm):
 
 @njit(cache=True)
 def _psi(vx, vy, r, wf, wr, delta, F, Q, Psi):
-    """Regressor Psi(X) (4, 8) of the relaxation model (8), reconstruction R-A5."""
-    lf, lr, rf, rr = Q[2], Q[3], Q[4], Q[5]
-    Ckf, Ckr, Caf, Car = Q[8], Q[9], Q[10], Q[11]
+    """Regressor Psi(X) (4, 8) of the relaxation model (8), reconstruction R-A5: row ``i``
+    (force ``i``) holds ``[C s_i - v_x F_i, v_x]`` in columns ``2i, 2i + 1``."""
+    lf, lr, rf, rr = Q[FM_LF], Q[FM_LR], Q[FM_RF], Q[FM_RR]
+    Ckf, Ckr, Caf, Car = Q[FM_CKF], Q[FM_CKR], Q[FM_CAF], Q[FM_CAR]
     for i in range(4):
         for j in range(8):
             Psi[i, j] = 0.0
@@ -207,25 +268,28 @@ def _psi(vx, vy, r, wf, wr, delta, F, Q, Psi):
     s1 = rr * wr - vx
     s2 = vx * delta - vy - lf * r
     s3 = lr * r - vy
-    Psi[0, 0] = Ckf * s0 - vx * F[0]
-    Psi[0, 1] = vx
-    Psi[1, 2] = Ckr * s1 - vx * F[1]
-    Psi[1, 3] = vx
-    Psi[2, 4] = Caf * s2 - vx * F[2]
-    Psi[2, 5] = vx
-    Psi[3, 6] = Car * s3 - vx * F[3]
-    Psi[3, 7] = vx
+    Psi[F_XF, 2 * F_XF] = Ckf * s0 - vx * F[F_XF]
+    Psi[F_XF, 2 * F_XF + 1] = vx
+    Psi[F_XR, 2 * F_XR] = Ckr * s1 - vx * F[F_XR]
+    Psi[F_XR, 2 * F_XR + 1] = vx
+    Psi[F_YF, 2 * F_YF] = Caf * s2 - vx * F[F_YF]
+    Psi[F_YF, 2 * F_YF + 1] = vx
+    Psi[F_YR, 2 * F_YR] = Car * s3 - vx * F[F_YR]
+    Psi[F_YR, 2 * F_YR + 1] = vx
 
 
 @njit(cache=True)
 def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, phi3, tau_f,
                     mode):
+    """Observer (10) with the adaptation (20)-(22): explicit Euler at ``dt`` over the samples.
+    ``z0`` (21,) the internal state of :class:`ForceObserver` at sample 0; row ``k`` of the
+    estimates is the state before sample ``k`` is used, of ``e4`` after, of ``s`` at it."""
     N = Y.shape[0]
-    x2 = z0[0:3].copy()
-    x3 = z0[3:5].copy()
-    x4 = z0[5:9].copy()
-    th = z0[9:17].copy()
-    e4f = np.zeros(4)
+    x2 = z0[Z_X2:Z_X3].copy()
+    x3 = z0[Z_X3:Z_X4].copy()
+    x4 = z0[Z_X4:Z_TH].copy()
+    th = z0[Z_TH:Z_E4F].copy()
+    e4f = z0[Z_E4F:Z_END].copy()
     out_x2 = np.empty((N, 3))
     out_x3 = np.empty((N, 2))
     out_x4 = np.empty((N, 4))
@@ -239,20 +303,20 @@ def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, ph
     v = np.empty(5)
     s2 = np.empty(3)
     s3 = np.empty(2)
-    Jf, Jr = Q[6], Q[7]
+    Jf, Jr = Q[FM_JF], Q[FM_JR]
     a = np.exp(-dt / tau_f)
     for k in range(N):
         out_x2[k] = x2
         out_x3[k] = x3
         out_x4[k] = x4
         out_th[k] = th
-        vx, vy, r, wf, wr = Y[k, 0], Y[k, 1], Y[k, 2], Y[k, 3], Y[k, 4]
-        delta, Tf, Tr = U[k, 0], U[k, 1], U[k, 2]
+        vx, vy, r, wf, wr = Y[k, Y_VX], Y[k, Y_VY], Y[k, Y_R], Y[k, Y_WF], Y[k, Y_WR]
+        delta, Tf, Tr = U[k, IU_DELTA], U[k, IU_TF], U[k, IU_TR]
         for i in range(3):
-            s2[i] = _sw(Y[k, i] - x2[i], phi2[i], mode)
+            s2[i] = _sw(Y[k, Y_VX + i] - x2[i], phi2[i], mode)
             v[i] = lam2[i] * s2[i]
         for i in range(2):
-            s3[i] = _sw(Y[k, 3 + i] - x3[i], phi3[i], mode)
+            s3[i] = _sw(Y[k, Y_WF + i] - x3[i], phi3[i], mode)
             v[3 + i] = lam3[i] * s3[i]
         out_s[k, 0:3] = s2
         out_s[k, 3:5] = s3
@@ -275,8 +339,8 @@ def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, ph
         # explicit Euler update
         for i in range(3):
             x2[i] += dt * (dx2[i] + v[i])
-        x3[0] += dt * (Tf / Jf - Hm[0, 0] * x4[0] + v[3])
-        x3[1] += dt * (Tr / Jr - Hm[1, 1] * x4[1] + v[4])
+        x3[0] += dt * (Tf / Jf - Hm[0, 0] * x4[F_XF] + v[3])
+        x3[1] += dt * (Tr / Jr - Hm[1, 1] * x4[F_XR] + v[4])
         inj = e4f if mode == 2 else e4raw
         dth = Pth * (Psi.T @ e4f)
         for i in range(4):
@@ -290,107 +354,147 @@ def _force_observer(Y, U, dt, Q, z0, lam2, lam3, kk, Pth, th_lo, th_hi, phi2, ph
     return out_x2, out_x3, out_x4, out_th, out_e4, out_s
 
 
-def _sw_np(e, phi, mode):
-    """Switching function of :func:`_sw` on arrays."""
-    return np.clip(e / phi, -1.0, 1.0) if mode == SAT else np.sign(e)
+@dataclass(frozen=True, eq=False)
+class ForceTrajectory(Trajectory):
+    """Run of :class:`ForceObserver`: the estimate ``x`` (N, 9) ``[x2, x3, x4]`` and, per
+    sample, ``theta`` (N, 8) the adapted parameters, ``x4_err_eq`` (N, 4) the filtered
+    equivalent-injection estimate of ``x4 - x^4`` [N] (using sample ``k``), ``s`` (N, 5)
+    the switching values at sample ``k``. ``x2`` (N, 3) ``[v_x, v_y, r]``, ``x3`` (N, 2)
+    wheel speeds [rad/s] and ``x4`` (N, 4) forces ``[F_xf, F_xr, F_yf, F_yr]`` [N] are views
+    of ``x`` (the paper's names)."""
+
+    theta: np.ndarray | None = None
+    x4_err_eq: np.ndarray | None = None
+    s: np.ndarray | None = None
+
+    @property
+    def x2(self) -> np.ndarray:
+        return self.x[:, Z_X2:Z_X3]
+
+    @property
+    def x3(self) -> np.ndarray:
+        return self.x[:, Z_X3:Z_X4]
+
+    @property
+    def x4(self) -> np.ndarray:
+        return self.x[:, Z_X4:Z_TH]
 
 
-def force_observer_step(st: dict, y, u, model: ForceObserverModel, g: ForceObserverGains,
-                        dt: float) -> dict:
-    """One explicit-Euler step of observer (10) with the adaptation (20)-(22), the readable
-    numpy version of the compiled loop ``_force_observer`` (tested equal).
+class ForceObserver(FixedStepObserver):
+    """Tyre-force sliding-mode observer (10) with the adaptive force model (20)-(22) of
+    Rabhi, Imine, M'Sirdi, Delanne (AVCS 2004), explicit Euler at the sample period ``dt``.
 
-    ``st``: ``x2`` (3,) ``[v_x, v_y, r]``, ``x3`` (2,) wheel speeds [rad/s], ``x4`` (4,)
-    forces [N], ``th`` (8,) theta, ``e4f`` (4,) filtered equivalent injection; ``y`` (5,)
-    measurements ``[v_x, v_y, r, w_f, w_r]``, ``u`` (3,) ``[delta, T_f, T_r]``. Returns the
-    next state (new dict)."""
-    mode = _mode(g.mode)
-    Q = model.as_array()
-    x2, x3, x4, th = st["x2"], st["x3"], st["x4"], st["th"]
-    Om, Hm = omega_h(u[0], Q)
-    # switching terms Lambda2 s(x~2), Lambda3 s(x~3) of (10)
-    v = np.concatenate([np.asarray(g.lam2) * _sw_np(y[0:3] - x2, np.asarray(g.phi2), mode),
-                        np.asarray(g.lam3) * _sw_np(y[3:5] - x3, np.asarray(g.phi3), mode)])
-    W = np.vstack([Om, -Hm])
-    e4 = np.linalg.solve(W.T @ W, W.T @ v)           # x~4 on the surfaces (R-A6, R-A7)
-    a = np.exp(-dt / g.tau_f)
-    e4f = a * st["e4f"] + (1 - a) * e4
-    Psi = np.empty((4, 8))
-    _psi(y[0], y[1], y[2], y[3], y[4], u[0], x4, Q, Psi)
-    transport = np.array([y[1] * y[2], -y[0] * y[2], 0.0])   # v_y r, -v_x r (R-A3)
-    inj = e4f if mode == LPF else e4
-    th_new = np.clip(th + dt * np.asarray(g.P) * (Psi.T @ e4f), g.theta_lo, g.theta_hi)
-    return {"x2": x2 + dt * (Om @ x4 + transport + v[0:3]),
-            "x3": x3 + dt * (u[1:3] / Q[6:8] - np.diag(Hm[:, 0:2]) * x4[0:2] + v[3:5]),
-            "x4": x4 + dt * (Psi @ th + np.asarray(g.k) * inj),
-            "th": th_new, "e4f": e4f}
-
-
-@dataclass
-class ForceObserverResult:
-    """Trajectories of observer (10): x2 (N,3), x3 (N,2), x4 (N,4) forces [N], theta (N,8),
-    x4_err_eq (N,4) the filtered equivalent-injection estimate of ``x4 - x^4``, s (N,5)
-    switching values."""
-
-    t: np.ndarray
-    x2: np.ndarray
-    x3: np.ndarray
-    x4: np.ndarray
-    theta: np.ndarray
-    x4_err_eq: np.ndarray
-    s: np.ndarray
-
-
-def run_force_observer(t, Y, U, model: ForceObserverModel, gains: ForceObserverGains,
-                       x2_0=None, x3_0=None, x4_0=None, theta_0=None) -> ForceObserverResult:
-    """Run observer (10) on measurements ``Y`` (N, 5) ``[v_x, v_y, r, w_f, w_r]`` and inputs
-    ``U`` (N, 3) ``[delta, T_f, T_r]`` sampled at constant step ``t[1]-t[0]``.
-
-    Initial estimates default to the first measurement (x2, x3), zero forces and the nominal
-    ``theta`` (``model.theta0()``).
+    ``model``: :class:`ForceObserverModel` (observer-side constants); ``gains``
+    (:attr:`design`): :class:`ForceObserverGains`; ``theta0`` (8,) initial ``theta``
+    (default ``model.theta0()``). Data: ``u`` (N, 3) ``[delta, T_f, T_r]`` [rad, N m, N m],
+    ``y`` (N, 5) ``[v_x, v_y, r, omega_f, omega_r]`` with ``v_x > 0.5 m/s`` (the relaxation
+    model divides by it). ``x0`` (9,) the initial estimate ``[x2, x3, x4]``; default the
+    first measurement and zero forces. Internal state ``z`` (21,): blocks :data:`Z_X2`
+    ... :data:`Z_E4F` (estimate, ``theta``, filtered equivalent injection).
     """
-    t = np.asarray(t, dtype=float)
-    Y = np.ascontiguousarray(Y, dtype=float)
-    U = np.ascontiguousarray(U, dtype=float)
-    if Y.ndim != 2 or Y.shape[1] != 5:
-        raise ValueError(f"Y must be (N, 5) [vx, vy, r, omega_f, omega_r], got {Y.shape}")
-    if U.shape != (Y.shape[0], 3):
-        raise ValueError(f"U must be (N, 3) [delta, T_f, T_r] with N={Y.shape[0]}, "
-                         f"got {U.shape}")
-    if t.shape != (Y.shape[0],):
-        raise ValueError(f"t must be (N,) with N={Y.shape[0]}, got {t.shape}")
-    dt = float(t[1] - t[0])
-    if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
-        raise ValueError("t must be uniformly increasing (constant step)")
-    bad = ~np.all(np.isfinite(Y), axis=1)
-    if bad.any():
-        raise ValueError(f"Y row {int(np.argmax(bad))} is not finite")
-    if np.any(Y[:, 0] <= 0.5):
-        k = int(np.argmax(Y[:, 0] <= 0.5))
-        raise ValueError(f"v_x must stay > 0.5 m/s (relaxation model divides by it): "
-                         f"Y[{k}, 0] = {Y[k, 0]}")
-    z0 = np.empty(17)
-    z0[0:3] = Y[0, 0:3] if x2_0 is None else x2_0
-    z0[3:5] = Y[0, 3:5] if x3_0 is None else x3_0
-    z0[5:9] = 0.0 if x4_0 is None else x4_0
-    z0[9:17] = model.theta0() if theta_0 is None else theta_0
-    g = gains
-    arr = lambda v: np.asarray(v, dtype=float)
-    x2, x3, x4, th, e4, s = _force_observer(
-        Y, U, dt, model.as_array(), z0, arr(g.lam2), arr(g.lam3), arr(g.k), arr(g.P),
-        arr(g.theta_lo), arr(g.theta_hi), arr(g.phi2), arr(g.phi3), float(g.tau_f),
-        _mode(g.mode))
-    return ForceObserverResult(t, x2, x3, x4, th, e4, s)
 
+    state_names = ("vx_mps", "vy_mps", "yaw_rate_radps", "omega_f_radps", "omega_r_radps",
+                   "Fxf_N", "Fxr_N", "Fyf_N", "Fyr_N")
+    input_names = ("delta_roadwheel_rad", "Tf_Nm", "Tr_Nm")
+    output_names = ("vx_mps", "vy_mps", "yaw_rate_radps", "omega_f_radps", "omega_r_radps")
 
-def measurements_from_truth(Xs, noise_std=None, seed: int = 0) -> np.ndarray:
-    """Measured ``[v_x, v_y, r, w_f, w_r]`` (N, 5) from a planar trajectory (N, 12), with
-    optional white noise ``noise_std`` (5,) drawn from ``default_rng(seed)``."""
-    Y = np.asarray(Xs)[:, [IVX, IVY, IR, IWF, IWR]].copy()
-    if noise_std is not None:
-        rng = np.random.default_rng(seed)
-        Y += rng.normal(size=Y.shape) * np.asarray(noise_std, dtype=float)
-    return Y
+    def __init__(self, model: ForceObserverModel, gains: ForceObserverGains, dt: float,
+                 theta0=None):
+        super().__init__(dt)
+        if not isinstance(model, ForceObserverModel):
+            raise ObserverArgumentError(f"ForceObserver: model must be a ForceObserverModel, "
+                                        f"got {type(model).__name__}")
+        if not isinstance(gains, ForceObserverGains):
+            raise ObserverArgumentError(f"ForceObserver: gains must be ForceObserverGains, got "
+                                        f"{type(gains).__name__}")
+        self.model, self.design = model, gains
+        th = model.theta0() if theta0 is None else np.asarray(theta0, dtype=float)
+        if th.shape != (8,) or not np.all(np.isfinite(th)):
+            raise ObserverArgumentError(f"ForceObserver: theta0 must be 8 finite values, got "
+                                        f"{theta0}")
+        self.theta0 = th
+        self._Q = model.as_array()
+        g = gains
+        self._g = {k: np.asarray(getattr(g, k), dtype=float)
+                   for k in ("lam2", "lam3", "k", "P", "theta_lo", "theta_hi", "phi2", "phi3")}
+
+    def check_data(self, t, u, y, x0=None):
+        t, u, y, x0 = super().check_data(t, u, y, x0)
+        if np.any(y[:, Y_VX] <= 0.5):
+            k = int(np.argmax(y[:, Y_VX] <= 0.5))
+            raise ObserverArgumentError(f"ForceObserver: v_x must stay > 0.5 m/s (the "
+                                        f"relaxation model divides by it): y[{k}, 0] = "
+                                        f"{y[k, Y_VX]}")
+        return t, u, y, x0
+
+    def initial_state(self, t, u, y, x0=None) -> np.ndarray:
+        z = np.zeros(Z_END)
+        if x0 is None:
+            z[Z_X2:Z_X4] = y[0, Y_VX:Y_WR + 1]
+        else:
+            z[Z_X2:Z_TH] = x0
+        z[Z_TH:Z_E4F] = self.theta0
+        return z
+
+    def step(self, z, k, t, u, y) -> np.ndarray:
+        """Observer (10) with the adaptation (20)-(22) (Rabhi 2004; reconstructions R-A3 to
+        R-A7): one explicit-Euler step over ``[t_{k-1}, t_k]`` with sample ``k - 1``::
+
+            v      = [Lambda2 s(y_x2 - x2^); Lambda3 s(y_x3 - x3^)]   switching terms of (10)
+            e4     = W^+ v,  W = [Omega(delta); -H]                   x~4 on the surfaces
+            e4f    = a e4f + (1 - a) e4,  a = exp(-dt / tau_f)         filtered (R-A7)
+            x2^+   = x2^ + dt (Omega x4^ + [v_y r, -v_x r, 0] + v_2)  (10), R-A3
+            x3^+   = x3^ + dt (T / J - H x4^ + v_3)
+            x4^+   = x4^ + dt (Psi(X^) theta^ + K inj)     inj = e4f (lpf) or e4   (19)
+            theta^+ = proj(theta^ + dt P Psi(X^)' e4f)                           (20)-(22)
+        """
+        g, m, dt, mode = self._g, self.model, self.dt, self.design.mode
+        yk, (delta, Tf, Tr) = y[k - 1], u[k - 1]
+        vx, vy, r, wf, wr = yk
+        x2, x3, x4 = z[Z_X2:Z_X3], z[Z_X3:Z_X4], z[Z_X4:Z_TH]
+        th, e4f = z[Z_TH:Z_E4F], z[Z_E4F:Z_END]
+        c, s = np.cos(delta), np.sin(delta)
+        Om = np.array([[c / m.m, 1.0 / m.m, -s / m.m, 0.0],
+                       [s / m.m, 0.0, c / m.m, 1.0 / m.m],
+                       [m.l_f * s / m.J_z, 0.0, m.l_f * c / m.J_z, -m.l_r / m.J_z]])
+        H = np.array([[m.r_f / m.J_f, 0.0, 0.0, 0.0], [0.0, m.r_r / m.J_r, 0.0, 0.0]])
+        v = np.concatenate([g["lam2"] * _sw_np(yk[0:3] - x2, g["phi2"], mode),
+                            g["lam3"] * _sw_np(yk[3:5] - x3, g["phi3"], mode)])
+        W = np.vstack([Om, -H])
+        e4 = np.linalg.solve(W.T @ W, W.T @ v)
+        a = np.exp(-dt / self.design.tau_f)
+        e4f = a * e4f + (1 - a) * e4
+        slip = np.array([m.r_f * wf - vx, m.r_r * wr - vx, vx * delta - vy - m.l_f * r,
+                         m.l_r * r - vy])          # slip velocities of (8), R-A5
+        stiff = np.array([m.C_kf, m.C_kr, m.C_af, m.C_ar])
+        Psi = np.zeros((4, 8))
+        i = np.arange(4)
+        Psi[i, 2 * i] = stiff * slip - vx * x4    # row i: [C s_i - v_x F_i, v_x] (R-A5)
+        Psi[i, 2 * i + 1] = vx
+        inj = e4f if mode == LPF else e4
+        return np.concatenate([
+            x2 + dt * (Om @ x4 + np.array([vy * r, -vx * r, 0.0]) + v[0:3]),
+            x3 + dt * (np.array([Tf, Tr]) / np.array([m.J_f, m.J_r]) - np.diag(H[:, 0:2]) * x4[0:2]
+                       + v[3:5]),
+            x4 + dt * (Psi @ th + g["k"] * inj),
+            np.clip(th + dt * g["P"] * (Psi.T @ e4f), g["theta_lo"], g["theta_hi"]),
+            e4f])
+
+    def estimate(self, z) -> np.ndarray:
+        return z[Z_X2:Z_TH].copy()
+
+    def run(self, t, u, y, x0=None) -> ForceTrajectory:
+        """The compiled loop (``_force_observer``): the estimate of :meth:`step` looped, plus
+        ``theta``, the filtered equivalent injection and the switching values per sample."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        z0 = self.initial_state(t, u, y, x0)
+        g = self._g
+        sec, (x2, x3, x4, th, e4, s) = self.timed(
+            _force_observer, y, u, self.dt, self._Q, z0, g["lam2"], g["lam3"], g["k"], g["P"],
+            g["theta_lo"], g["theta_hi"], g["phi2"], g["phi3"], float(self.design.tau_f),
+            int(self.design.mode))
+        return ForceTrajectory(t, np.hstack([x2, x3, x4]), self.state_names, seconds=sec,
+                               estimator=type(self).__name__, theta=th, x4_err_eq=e4, s=s)
 
 
 def omega_h(delta: float, model: ForceObserverModel):
@@ -429,36 +533,6 @@ def omega_x4_bound(delta, x4_err, model: ForceObserverModel) -> np.ndarray:
     return out
 
 
-def force_errors(t, F_est, F_true, peak, t_skip: float = 1.0,
-                 names=("Fxf", "Fxr", "Fyf", "Fyr")) -> dict:
-    """Force metrics shared by the SMO and the EKF baseline: for each force ``rmse_<nm>``
-    [N] and ``rmse_pct_<nm>`` [% of ``peak``] over ``t >= t_skip``. t (M,), F_est,
-    F_true (M, 4) [N], peak (4,) [N] (peak of the full truth run)."""
-    t = np.asarray(t, dtype=float)
-    m = t >= t_skip
-    if not m.any():
-        raise ValueError(f"no sample after t_skip = {t_skip} s")
-    F_est, F_true = np.asarray(F_est, dtype=float), np.asarray(F_true, dtype=float)
-    out = {}
-    for i, nm in enumerate(names):
-        e = rmse(F_est[m, i], F_true[m, i])
-        out[f"rmse_{nm}"] = e
-        out[f"rmse_pct_{nm}"] = 100 * e / float(peak[i])
-    return out
-
-
-def reaching_time(t, err, band) -> float:
-    """First time after which ``|err| <= band`` for good (the sliding surface is reached
-    and kept); ``nan`` if it never stays inside. ``err`` (N,), ``band`` scalar."""
-    e = np.abs(np.asarray(err, dtype=float))
-    outside = np.flatnonzero(e > band)
-    if len(outside) == 0:
-        return float(t[0])
-    if outside[-1] == len(e) - 1:
-        return float("nan")
-    return float(t[outside[-1] + 1])
-
-
 # ================================================================== Part B =================
 # Reconstructions (also in notebook 05):
 # R-B3  Outputs. (29) lists y = [x12, x22, x31] (body positions, rates, wheel accelerations);
@@ -478,16 +552,33 @@ def reaching_time(t, err, band) -> float:
 #       part of the road force), and (36): zeta = zeta^ + M1 H21 LPF[s].
 # R-B6  (38) is the step response of (37) for constant zeta; we integrate (37) itself,
 #       B11 U' + A11 U = zeta, exactly for zeta held over a step (ZOH).
+#: wheel labels (order RL, RR, FL, FR of :mod:`vehicle_observers.models.fullcar`)
+_WHEEL = ("rl", "rr", "fl", "fr")
+#: measurement names of the full car: wheel displacements x11, body positions x12, body
+#: rates x22, wheel accelerations x31
+X11_NAMES = tuple(f"zw_{w}_m" for w in _WHEEL)
+X12_NAMES = ("z_m", "theta_rad", "phi_rad")
+X22_NAMES = ("dz_mps", "dtheta_radps", "dphi_radps")
+X31_NAMES = tuple(f"azw_{w}_mps2" for w in _WHEEL)
+ROAD_NAMES = tuple(f"road_{w}_m" for w in _WHEEL)
+#: internal state of :class:`RoadObserver`: ``[x11^ (4), x21^ (4), v_eq (4), LPF[s] (4),
+#: zeta^ (4), U (4), x22^ (3)]``, blocks starting at these indices
+R_Z, R_V, R_VEQ, R_SEQ, R_ZH, R_U, R_XB, R_END = 0, 4, 8, 12, 16, 20, 24, 27
 
 
 @dataclass(frozen=True)
 class RoadObserverGains:
-    """Gains of the road-profile UIO (R-B4/R-B5), per wheel (4,) or scalars.
+    """Gains of the road-profile UIO (R-B4/R-B5), scalars shared by the four wheels: the
+    design of :class:`RoadObserver` (a gain rule: ``certificate`` is ``None``).
 
     h11 [m/s] must exceed ``|x~21|`` (stage-1 reaching); h21 [m/s^2] must exceed the fast
     part of ``|M1^-1 zeta~|``; phi1 [m], phi2 [m/s] boundary layers (mode SAT); tau_f [s]
-    equivalent-injection filter; tau_i [s] zeta^ integrator time constant.
+    equivalent-injection filter; tau_i [s] zeta^ integrator time constant; h22 [1/s] >= 0,
+    phi22 [rad/s] body-rate injection and its boundary layer. Gains >= 0, widths and time
+    constants > 0.
     """
+
+    certificate: ClassVar[None] = None
 
     h11: float = 2.0
     h21: float = 150.0
@@ -499,26 +590,33 @@ class RoadObserverGains:
     phi22: float = 0.01
     mode: int = SAT
 
-    def with_(self, **kw) -> "RoadObserverGains":
-        from dataclasses import replace
+    def __post_init__(self):
+        who = "RoadObserverGains"
+        object.__setattr__(self, "mode", _mode(self.mode))
+        for name in ("h11", "h21", "h22"):
+            positive(who, name, getattr(self, name), allow_zero=True)
+        for name in ("phi1", "phi2", "phi22", "tau_f", "tau_i"):
+            positive(who, name, getattr(self, name))
 
-        if "mode" in kw:
-            kw["mode"] = _mode(kw["mode"])
+    def with_(self, **kw) -> "RoadObserverGains":
         return replace(self, **kw)
 
 
 @njit(cache=True)
 def _road_observer(Y, dt, mu, c11, k11, C12, K12, kt, ct, h11, h21, phi1, phi2, tau_f,
-                   tau_i, mode, M2, C21, C22, K21, K22, h22, phi22, z0):
+                   tau_i, mode, M2, C21, C22, K21, K22, h22, phi22, s0):
+    """The road UIO (R-B4 to R-B6) over the samples; ``s0`` (27,) the internal state of
+    :class:`RoadObserver` at sample 0 (blocks :data:`R_Z` ...). Row ``k`` of ``z``, ``U``,
+    ``xb`` is the state before sample ``k`` is used; ``v``, ``zeta``, ``s1`` use it."""
     N = Y.shape[0]
-    z = z0.copy()
-    xb = Y[0, 7:10].copy()
+    z = s0[R_Z:R_V].copy()
+    v = s0[R_V:R_VEQ].copy()
+    veq = s0[R_VEQ:R_SEQ].copy()
+    seq = s0[R_SEQ:R_ZH].copy()
+    zh = s0[R_ZH:R_U].copy()
+    U = s0[R_U:R_XB].copy()
+    xb = s0[R_XB:R_END].copy()
     out_xb = np.empty((N, 3))
-    v = np.zeros(4)
-    veq = np.zeros(4)
-    seq = np.zeros(4)
-    zh = np.zeros(4)
-    U = np.zeros(4)
     out_z = np.empty((N, 4))
     out_v = np.empty((N, 4))
     out_zeta = np.empty((N, 4))
@@ -526,18 +624,18 @@ def _road_observer(Y, dt, mu, c11, k11, C12, K12, kt, ct, h11, h21, phi1, phi2, 
     out_s1 = np.empty((N, 4))
     a = np.exp(-dt / tau_f)
     for k in range(N):
-        x12 = Y[k, 4:7]
-        x22 = Y[k, 7:10]
+        x12 = Y[k, OUT_X12:OUT_X12 + 3]
+        x22 = Y[k, OUT_X22:OUT_X22 + 3]
         g = C12 @ x22 + K12 @ x12
         # body-rate line of (30): x22^' = -M2^-1(C21 x21^ + C22 x22^ + K21 x11 + K22 x12)
         #                                 + H22 s(x~22)
         out_xb[k] = xb
         vw = v + veq
-        db = -(C21 @ vw + C22 @ xb + K21 @ Y[k, 0:4] + K22 @ x12) / M2
+        db = -(C21 @ vw + C22 @ xb + K21 @ Y[k, OUT_X11:OUT_X11 + 4] + K22 @ x12) / M2
         for j in range(3):
             xb[j] += dt * (db[j] + h22 * _sw(x22[j] - xb[j], phi22, mode))
         for i in range(4):
-            s1 = _sw(Y[k, i] - z[i], phi1, mode)
+            s1 = _sw(Y[k, OUT_X11 + i] - z[i], phi1, mode)
             out_s1[k, i] = s1
             veq[i] = a * veq[i] + (1.0 - a) * h11 * s1
             s2 = _sw(veq[i], phi2, mode)
@@ -550,72 +648,136 @@ def _road_observer(Y, dt, mu, c11, k11, C12, K12, kt, ct, h11, h21, phi1, phi2, 
             e = np.exp(-dt * kt[i] / ct[i])
             out_U[k, i] = U[i]
             U[i] = e * U[i] + (1.0 - e) * zeta / kt[i]
-            dv = (-(c11[i] * v[i] + k11[i] * Y[k, i] + g[i]) + zh[i]) / mu[i] + h21 * s2
+            dv = (-(c11[i] * v[i] + k11[i] * Y[k, OUT_X11 + i] + g[i]) + zh[i]) / mu[i] \
+                + h21 * s2
             z[i] += dt * (v[i] + h11 * s1)
             v[i] += dt * dv
             zh[i] += dt * mu[i] * h21 * seq[i] / tau_i
     return out_z, out_v, out_zeta, out_U, out_s1, out_xb
 
 
-@dataclass
-class RoadObserverResult:
-    """UIO trajectories, all (N, 4) in wheel order (RL, RR, FL, FR): wheel displacement
-    ``z`` [m], wheel velocity ``v`` [m/s] (x21^ plus the equivalent injection), road force
-    ``zeta`` [N] (36), road elevation ``U`` [m] (37), stage-1 switching values ``s1``;
-    ``x22`` (N, 3) the body-rate estimate ``[z', theta', phi']`` of (30)."""
+@dataclass(frozen=True, eq=False)
+class RoadTrajectory(Trajectory):
+    """Run of :class:`RoadObserver`: the estimate ``x`` (N, 11) ``[x11^ (4), U (4), x22^
+    (3)]`` and, per sample (using sample ``k``), ``v`` (N, 4) the wheel velocity [m/s]
+    (``x21^`` plus the equivalent injection), ``zeta`` (N, 4) the road force [N] (36),
+    ``s1`` (N, 4) the stage-1 switching values. Views of ``x`` (paper names, wheel order
+    RL, RR, FL, FR): ``z`` (N, 4) wheel displacements [m], ``U`` (N, 4) road elevation [m]
+    (37), ``x22`` (N, 3) body rates ``[z', theta', phi']``."""
 
-    t: np.ndarray
-    z: np.ndarray
-    v: np.ndarray
-    zeta: np.ndarray
-    U: np.ndarray
-    s1: np.ndarray
-    x22: np.ndarray
+    v: np.ndarray | None = None
+    zeta: np.ndarray | None = None
+    s1: np.ndarray | None = None
 
+    @property
+    def z(self) -> np.ndarray:
+        return self.x[:, 0:4]
 
-def _checked_outputs(t, Y, name: str, layout: str):
-    """``(t, Y, dt)`` for a road observer: ``Y`` (N, 10) finite, ``t`` (N,) uniformly
-    increasing; a ValueError naming the array, the row or the expected layout otherwise."""
-    t = np.asarray(t, dtype=float)
-    Y = np.ascontiguousarray(Y, dtype=float)
-    if Y.ndim != 2 or Y.shape[1] != 10:
-        raise ValueError(f"{name} must be (N, 10) {layout}, got {Y.shape}")
-    if t.shape != (Y.shape[0],):
-        raise ValueError(f"t must be (N,) with N={Y.shape[0]}, got {t.shape}")
-    dt = float(t[1] - t[0])
-    if dt <= 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
-        raise ValueError("t must be uniformly increasing (constant step)")
-    bad = ~np.all(np.isfinite(Y), axis=1)
-    if bad.any():
-        raise ValueError(f"{name} row {int(np.argmax(bad))} is not finite")
-    return t, Y, dt
+    @property
+    def U(self) -> np.ndarray:
+        return self.x[:, 4:8]
+
+    @property
+    def x22(self) -> np.ndarray:
+        return self.x[:, 8:11]
 
 
-def run_road_observer(t, Y, p, gains: RoadObserverGains, z0=None) -> RoadObserverResult:
-    """Run the road-profile UIO on outputs ``Y`` (N, 10) = ``fullcar.outputs(paper=False)``
-    ``[x11 (4), x12 (3), x22 (3)]`` sampled at constant step, with observer-model constants
-    ``p`` (:class:`~vehicle_observers.models.fullcar.FullCarParams`, may differ from the truth).
-    ``z0`` (4,) initial wheel-displacement estimate (default: the first measurement); the
-    wheel-velocity, road-force and body-rate estimates start at 0 / the first measurement."""
-    t, Y, dt = _checked_outputs(t, Y, "Y", "[x11 (4), x12 (3), x22 (3)]")
-    if _mode(gains.mode) == LPF:
-        raise ValueError("mode 'lpf' applies to the force observer only: the road UIO always "
-                         "low-pass filters its equivalent injections (tau_f); use 'sign' or "
-                         "'sat'")
-    M, C, K, A11, B11 = p.matrices()
-    g = gains
-    z0 = Y[0, 0:4] if z0 is None else np.asarray(z0, dtype=float)
-    if z0.shape != (4,):
-        raise ValueError(f"z0 must have shape (4,), got {z0.shape}")
-    z, v, zeta, U, s1, xb = _road_observer(
-        Y, dt, np.diag(M)[:4].copy(), np.diag(C)[:4].copy(), np.diag(K)[:4].copy(),
-        np.ascontiguousarray(C[:4, 4:]), np.ascontiguousarray(K[:4, 4:]),
-        np.diag(A11).copy(), np.diag(B11).copy(), float(g.h11), float(g.h21),
-        float(g.phi1), float(g.phi2), float(g.tau_f), float(g.tau_i), _mode(g.mode),
-        np.diag(M)[4:].copy(), np.ascontiguousarray(C[4:, :4]), np.ascontiguousarray(C[4:, 4:]),
-        np.ascontiguousarray(K[4:, :4]), np.ascontiguousarray(K[4:, 4:]), float(g.h22),
-        float(g.phi22), z0.copy())
-    return RoadObserverResult(t, z, v, zeta, U, s1, xb)
+class RoadObserver(FixedStepObserver):
+    """Road-profile sliding-mode unknown-input observer (30)-(38) of Rabhi 2004 Part B
+    (reconstructions R-B3 to R-B6), explicit Euler at the sample period ``dt``.
+
+    ``params``: :class:`~vehicle_observers.models.fullcar.FullCarParams`, the observer-model
+    constants (may differ from the truth); ``gains`` (:attr:`design`):
+    :class:`RoadObserverGains` (modes ``sign`` and ``sat``; the injections are always
+    low-pass filtered). Data: no input (``u=None``); ``y`` (N, 10) =
+    :func:`vehicle_observers.models.fullcar.outputs` ``[x11 (4), x12 (3), x22 (3)]``.
+    ``x0`` (11,) the initial estimate ``[x11^, U, x22^]``; default the first measured wheel
+    displacements and body rates, a flat road. Wheel velocity, equivalent injections and
+    road force start at 0. Internal state ``z`` (27,): blocks :data:`R_Z` ... :data:`R_XB`.
+    """
+
+    state_names = X11_NAMES + ROAD_NAMES + X22_NAMES
+    input_names = ()
+    output_names = X11_NAMES + X12_NAMES + X22_NAMES
+
+    def __init__(self, params: FullCarParams, gains: RoadObserverGains, dt: float):
+        super().__init__(dt)
+        if not isinstance(gains, RoadObserverGains):
+            raise ObserverArgumentError(f"RoadObserver: gains must be RoadObserverGains, got "
+                                        f"{type(gains).__name__}")
+        if gains.mode == LPF:
+            raise ObserverArgumentError(
+                "RoadObserver: mode 'lpf' applies to the force observer only: the road UIO "
+                "always low-pass filters its equivalent injections (tau_f); use 'sign' or 'sat'")
+        self.params, self.design = params, gains
+        M, C, K, A11, B11 = params.matrices()
+        c = np.ascontiguousarray
+        self._m = {"mu": np.diag(M)[:4].copy(), "c11": np.diag(C)[:4].copy(),
+                   "k11": np.diag(K)[:4].copy(), "C12": c(C[:4, 4:]), "K12": c(K[:4, 4:]),
+                   "kt": np.diag(A11).copy(), "ct": np.diag(B11).copy(),
+                   "M2": np.diag(M)[4:].copy(), "C21": c(C[4:, :4]), "C22": c(C[4:, 4:]),
+                   "K21": c(K[4:, :4]), "K22": c(K[4:, 4:])}
+
+    def initial_state(self, t, u, y, x0=None) -> np.ndarray:
+        z = np.zeros(R_END)
+        if x0 is None:
+            z[R_Z:R_V] = y[0, OUT_X11:OUT_X11 + 4]
+            z[R_XB:R_END] = y[0, OUT_X22:OUT_X22 + 3]
+        else:
+            z[R_Z:R_V], z[R_U:R_XB], z[R_XB:R_END] = x0[0:4], x0[4:8], x0[8:11]
+        return z
+
+    def step(self, z, k, t, u, y) -> np.ndarray:
+        """Road UIO of Rabhi 2004 (30), (36)-(37) as reconstructed (R-B4 to R-B6): one
+        explicit-Euler step over ``[t_{k-1}, t_k]`` with sample ``k - 1``, per wheel::
+
+            s1     = s(x11 - x11^)                     stage 1, surface x~11 = 0
+            v_eq+  = a v_eq + (1 - a) H11 s1           equivalent injection (= x~21), a = exp(-dt/tau_f)
+            s2     = s(v_eq+),  S+ = a S + (1 - a) s2  stage 2 and its filtered value
+            zeta   = zeta^ + M1 H21 S+                 road force (36)
+            U+     = e U + (1 - e) zeta / k_t          (37) exact for zeta held, e = exp(-dt k_t/c_t)
+            x11^+  = x11^ + dt (x21^ + H11 s1)
+            x21^+  = x21^ + dt ((zeta^ - c11 x21^ - k11 x11 - C12 x22 - K12 x12) / M1 + H21 s2)
+            zeta^+ = zeta^ + dt M1 H21 S+ / tau_i      (R-B5)
+            x22^+  = x22^ + dt (-M2^-1 (C21 (x21^ + v_eq) + C22 x22^ + K21 x11 + K22 x12)
+                                + H22 s(x22 - x22^))   body-rate line of (30)
+        """
+        g, m, dt, mode = self.design, self._m, self.dt, self.design.mode
+        yk = y[k - 1]
+        x11, x12, x22 = yk[OUT_X11:OUT_X11 + 4], yk[OUT_X12:OUT_X12 + 3], yk[OUT_X22:OUT_X22 + 3]
+        zw, v, veq, seq = z[R_Z:R_V], z[R_V:R_VEQ], z[R_VEQ:R_SEQ], z[R_SEQ:R_ZH]
+        zh, U, xb = z[R_ZH:R_U], z[R_U:R_XB], z[R_XB:R_END]
+        a = np.exp(-dt / g.tau_f)
+        db = -(m["C21"] @ (v + veq) + m["C22"] @ xb + m["K21"] @ x11 + m["K22"] @ x12) / m["M2"]
+        xb_new = xb + dt * (db + g.h22 * _sw_np(x22 - xb, g.phi22, mode))
+        s1 = _sw_np(x11 - zw, g.phi1, mode)
+        veq_new = a * veq + (1.0 - a) * g.h11 * s1
+        s2 = _sw_np(veq_new, g.phi2, mode)
+        seq_new = a * seq + (1.0 - a) * s2
+        zeta = zh + m["mu"] * g.h21 * seq_new
+        e = np.exp(-dt * m["kt"] / m["ct"])
+        body = m["C12"] @ x22 + m["K12"] @ x12
+        dv = (-(m["c11"] * v + m["k11"] * x11 + body) + zh) / m["mu"] + g.h21 * s2
+        return np.concatenate([zw + dt * (v + g.h11 * s1), v + dt * dv, veq_new, seq_new,
+                               zh + dt * m["mu"] * g.h21 * seq_new / g.tau_i,
+                               e * U + (1.0 - e) * zeta / m["kt"], xb_new])
+
+    def estimate(self, z) -> np.ndarray:
+        return np.concatenate([z[R_Z:R_V], z[R_U:R_XB], z[R_XB:R_END]])
+
+    def run(self, t, u, y, x0=None) -> RoadTrajectory:
+        """The compiled loop (``_road_observer``): the estimate of :meth:`step` looped, plus
+        the wheel velocity, road force and switching values per sample."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        s0 = self.initial_state(t, u, y, x0)
+        g, m = self.design, self._m
+        sec, (z, v, zeta, U, s1, xb) = self.timed(
+            _road_observer, y, self.dt, m["mu"], m["c11"], m["k11"], m["C12"], m["K12"],
+            m["kt"], m["ct"], float(g.h11), float(g.h21), float(g.phi1), float(g.phi2),
+            float(g.tau_f), float(g.tau_i), int(g.mode), m["M2"], m["C21"], m["C22"],
+            m["K21"], m["K22"], float(g.h22), float(g.phi22), s0)
+        return RoadTrajectory(t, np.hstack([z, U, xb]), self.state_names, seconds=sec,
+                              estimator=type(self).__name__, v=v, zeta=zeta, s1=s1)
 
 
 # ============================================================ Part B, the paper's outputs ===
@@ -646,6 +808,8 @@ class PaperOutputDesign:
     to zero with this time constant (a zero-mean warp prior); this leaves the error modulo
     ``V`` unchanged, because ``V`` is invariant under ``A - LC``."""
 
+    certificate: ClassVar[None] = None
+
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
@@ -671,9 +835,12 @@ def paper_output_design(p, deflection_wheel: int | None = None, q: float = 1.0,
     orthonormal complement of the unobservable subspace ``V``, found from the SVD of the
     observability matrix with relative tolerance ``tol``). Certified after the solve: the
     quotient error matrix ``T'(A - LC)T`` must be Hurwitz and ``(A - LC) V = 0`` (the warp
-    component stays constant); ``ValueError`` otherwise."""
+    component stays constant); ``CertificationError`` otherwise. ``q``, ``r``, ``tol`` > 0
+    (:class:`~vehicle_observers.core.errors.ObserverArgumentError` otherwise)."""
     from scipy.linalg import null_space, solve_continuous_are
 
+    for name, v in (("q", q), ("r", r), ("tol", tol)):
+        positive("paper_output_design", name, v)
     M, Cm, K, _, _ = p.matrices()
     M2 = np.diag(M)[4:]
     A = np.zeros((11, 11))
@@ -687,7 +854,8 @@ def paper_output_design(p, deflection_wheel: int | None = None, q: float = 1.0,
     rows = [np.hstack([np.zeros((3, 8)), np.eye(3)])]
     if deflection_wheel is not None:
         if deflection_wheel not in range(4):
-            raise ValueError(f"deflection_wheel must be 0..3 (RL, RR, FL, FR), got {deflection_wheel}")
+            raise ObserverArgumentError(f"paper_output_design: deflection_wheel must be 0..3 "
+                                        f"(RL, RR, FL, FR) or None, got {deflection_wheel}")
         e = np.zeros((1, 11))
         e[0, deflection_wheel] = 1.0
         rows.append(e)
@@ -701,22 +869,14 @@ def paper_output_design(p, deflection_wheel: int | None = None, q: float = 1.0,
     L = T @ (Pq @ Cq.T / r)
     eq = np.linalg.eigvals(T.T @ (A - L @ C) @ T)
     if np.max(np.real(eq)) >= 0:
-        raise ValueError(f"paper-output observer: quotient error matrix not Hurwitz, "
-                         f"max Re(eig) = {np.max(np.real(eq)):.3g} 1/s")
+        raise CertificationError(f"paper-output observer: quotient error matrix not Hurwitz, "
+                                 f"max Re(eig) = {np.max(np.real(eq)):.3g} 1/s")
     if V.shape[1]:
         leak = np.max(np.abs(T.T @ (A - L @ C) @ V))
         if leak > 1e-6 * np.max(np.abs(A - L @ C)):
-            raise ValueError(f"paper-output observer: the unobservable subspace is not invariant "
-                             f"under A - LC (coupling {leak:.3g})")
+            raise CertificationError(f"paper-output observer: the unobservable subspace is not "
+                                     f"invariant under A - LC (coupling {leak:.3g})")
     return PaperOutputDesign(A, B, C, L, V, eq, deflection_wheel)
-
-
-def paper_output_step(xo, w, y, d: PaperOutputDesign, dt: float):
-    """One explicit-Euler step of the observer, readable version of :func:`_lti_run`:
-    ``xo + dt (A xo + B w + L (y - C xo) - V V' xo / tau_w)``. ``xo`` (11,), ``w = [x31, x12]`` (7,),
-    ``y`` (p,) the measured outputs."""
-    leak = d.V @ (d.V.T @ xo) / d.tau_w
-    return xo + dt * (d.A @ xo + d.B @ w + d.L @ (y - d.C @ xo) - leak)
 
 
 @njit(cache=True)
@@ -732,64 +892,138 @@ def _lti_run(x0, F, G, Wk):
     return X
 
 
-@dataclass
-class PaperOutputResult:
-    """Trajectories of the paper-output observer: ``z`` (N, 4) wheel displacements [m],
-    ``v`` (N, 4) wheel velocities [m/s], ``x22`` (N, 3) body rates, ``zeta`` (N, 4) road
-    force [N] (36), ``U`` (N, 4) road elevation [m] (37)."""
-
-    t: np.ndarray
-    z: np.ndarray
-    v: np.ndarray
-    x22: np.ndarray
-    zeta: np.ndarray
-    U: np.ndarray
-
-
-def run_paper_output_observer(t, Yp, p, design: PaperOutputDesign, x0=None,
-                              deflection=None) -> PaperOutputResult:
-    """Run the observer of :func:`paper_output_design` on the paper's outputs
-    ``Yp`` (N, 10) = ``fullcar.outputs(paper=True)`` ``[x12 (3), x22 (3), x31 (4)]`` and,
-    if the design has a deflection sensor, ``deflection`` (N,) = ``S_i x12 - x11_i`` [m].
-    ``p`` the observer-model constants. Explicit Euler at the sample step (the same step as
-    :func:`paper_output_step`), ``x0`` (11,) the initial estimate (default zero wheel
-    states, measured body rates). The road force is the wheel line of (24)-(29) solved
-    for ``zeta``: ``zeta = M1 x31 + C11 x21 + C12 x22 + K11 x11 + K12 x12`` (36), and
-    the road elevation follows from (37) integrated exactly over each step."""
-    t, Yp, dt = _checked_outputs(t, Yp, "Yp", "[x12 (3), x22 (3), x31 (4)]")
-    x12, x22, acc = Yp[:, 0:3], Yp[:, 3:6], Yp[:, 6:10]
-    y = x22
-    if design.deflection_wheel is not None:
-        if deflection is None or np.shape(deflection) != (len(t),):
-            raise ValueError(f"design has a deflection sensor on wheel {design.deflection_wheel}: "
-                             f"deflection must be (N,) = ({len(t)},)")
-        i = design.deflection_wheel
-        y = np.column_stack([x22, p.S[i] @ x12.T - np.asarray(deflection, dtype=float)])
-    d = design
-    F = np.eye(11) + dt * (d.A - d.L @ d.C - d.V @ d.V.T / d.tau_w)
-    G = dt * np.hstack([d.B, d.L])
-    if x0 is None:
-        x0 = np.concatenate([np.zeros(8), x22[0]])
-    X = _lti_run(np.asarray(x0, dtype=float), F, G, np.ascontiguousarray(np.hstack([acc, x12, y])))
-    M, Cm, K, A11, B11 = p.matrices()
-    z, v = X[:, 0:4], X[:, 4:8]
-    zeta = (acc * np.diag(M)[:4] + v @ Cm[:4, :4].T + x22 @ Cm[:4, 4:].T + z @ K[:4, :4].T
-            + x12 @ K[:4, 4:].T)
-    kt, ct = np.diag(A11), np.diag(B11)
-    e = np.exp(-dt * kt / ct)
-    U = _first_order_zoh(zeta / kt, e)
-    return PaperOutputResult(t, z, v, X[:, 8:11], zeta, U)
-
-
 @njit(cache=True)
-def _first_order_zoh(u, e):
-    """``U_{k+1} = e U_k + (1 - e) u_k`` per column, ``U_0 = 0``: (37) exact for ``zeta``
-    held over each step. u (N, m), e (m,)."""
+def _first_order_zoh(u, e, U0):
+    """``U_{k+1} = e U_k + (1 - e) u_k`` per column from ``U_0 = U0``: (37) exact for
+    ``zeta`` held over each step. u (N, m), e (m,), U0 (m,)."""
     N, m = u.shape
     U = np.zeros((N, m))
+    U[0] = U0
     for k in range(N - 1):
         U[k + 1] = e * U[k] + (1.0 - e) * u[k]
     return U
+
+
+#: internal state of :class:`PaperOutputObserver`: ``[x11^ (4), x21^ (4), x22^ (3), U (4)]``
+P_X11, P_X21, P_X22, P_U, P_END = 0, 4, 8, 11, 15
+
+
+@dataclass(frozen=True, eq=False)
+class PaperOutputTrajectory(Trajectory):
+    """Run of :class:`PaperOutputObserver`: the estimate ``x`` (N, 15) ``[x11^ (4), x21^
+    (4), x22^ (3), U (4)]`` and ``zeta`` (N, 4) the road force [N] (36) at sample ``k``.
+    Views of ``x``: ``z`` wheel displacements [m], ``v`` wheel velocities [m/s], ``x22`` body
+    rates, ``U`` road elevation [m] (37)."""
+
+    zeta: np.ndarray | None = None
+
+    @property
+    def z(self) -> np.ndarray:
+        return self.x[:, P_X11:P_X21]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.x[:, P_X21:P_X22]
+
+    @property
+    def x22(self) -> np.ndarray:
+        return self.x[:, P_X22:P_U]
+
+    @property
+    def U(self) -> np.ndarray:
+        return self.x[:, P_U:P_END]
+
+
+class PaperOutputObserver(FixedStepObserver):
+    """Road observer on the paper's outputs (29) (Rabhi 2004 Part B): the linear injection
+    observer of :func:`paper_output_design` (explicit Euler at ``dt``), then the road force
+    (36) from the wheel line and the road elevation (37) integrated exactly over each step.
+
+    ``params``: :class:`~vehicle_observers.models.fullcar.FullCarParams` (observer model);
+    ``design``: :class:`PaperOutputDesign`. Data: no input (``u=None``); ``y`` (N, 10) =
+    ``fullcar.outputs(paper=True)`` ``[x12 (3), x22 (3), x31 (4)]``, plus a column
+    ``S_i x12 - x11_i`` [m] (suspension deflection of wheel ``i``) when the design has a
+    deflection sensor. ``x0`` (15,) the initial estimate ``[x11^, x21^, x22^, U]``; default
+    zero wheel states, the measured body rates and a flat road.
+    """
+
+    state_names = (X11_NAMES + tuple(f"vzw_{w}_mps" for w in _WHEEL) + X22_NAMES
+                   + ROAD_NAMES)
+    input_names = ()
+
+    def __init__(self, params: FullCarParams, design: "PaperOutputDesign", dt: float):
+        super().__init__(dt)
+        if not isinstance(design, PaperOutputDesign):
+            raise ObserverArgumentError(f"PaperOutputObserver: design must be a "
+                                        f"PaperOutputDesign, got {type(design).__name__}")
+        self.params, self.design = params, design
+        i = design.deflection_wheel
+        self.output_names = X12_NAMES + X22_NAMES + X31_NAMES + (
+            () if i is None else (f"defl_{_WHEEL[i]}_m",))
+        d = design
+        M, Cm, K, A11, B11 = params.matrices()
+        self._M1, self._C1, self._K1 = np.diag(M)[:4], Cm[:4], K[:4]
+        self._kt, self._e = np.diag(A11), np.exp(-self.dt * np.diag(A11) / np.diag(B11))
+        self._S = params.S
+        self._F = np.eye(11) + self.dt * (d.A - d.L @ d.C - d.V @ d.V.T / d.tau_w)
+        self._G = self.dt * np.hstack([d.B, d.L])
+
+    def _split(self, y):
+        """``(x12, x22, x31, observer outputs yo)`` of the samples ``y`` (N, p)."""
+        x12 = y[:, PAPER_X12:PAPER_X12 + 3]
+        x22 = y[:, PAPER_X22:PAPER_X22 + 3]
+        acc = y[:, PAPER_X31:PAPER_X31 + 4]
+        yo = x22
+        i = self.design.deflection_wheel
+        if i is not None:
+            yo = np.column_stack([x22, self._S[i] @ x12.T - y[:, PAPER_X31 + 4]])
+        return x12, x22, acc, yo
+
+    def _zeta(self, xo, y):
+        """Road force (36) ``zeta = M1 x31 + C11 x21 + C12 x22 + K11 x11 + K12 x12`` (N, 4)."""
+        x12, x22, acc, _ = self._split(y)
+        C1, K1 = self._C1, self._K1
+        return (acc * self._M1 + xo[:, 4:8] @ C1[:, :4].T + x22 @ C1[:, 4:].T
+                + xo[:, 0:4] @ K1[:, :4].T + x12 @ K1[:, 4:].T)
+
+    def initial_state(self, t, u, y, x0=None) -> np.ndarray:
+        z = np.zeros(P_END)
+        if x0 is None:
+            z[P_X22:P_U] = y[0, PAPER_X22:PAPER_X22 + 3]
+        else:
+            z[:] = x0
+        return z
+
+    def step(self, z, k, t, u, y) -> np.ndarray:
+        """Observer on the paper's outputs (29) (Rabhi 2004 Part B, the wheel and body lines
+        of (24)-(29)), one explicit-Euler step over ``[t_{k-1}, t_k]`` with sample ``k - 1``:
+        ``xo+ = xo + dt (A xo + B w + L (yo - C xo) - V V' xo / tau_w)`` with ``w = [x31,
+        x12]`` and ``yo`` the measured body rates (and wheel displacement), then the road
+        elevation (37) ``U+ = e U + (1 - e) zeta / k_t`` with the road force (36) of sample
+        ``k - 1``."""
+        d = self.design
+        x12, _, acc, yo = (a[0] for a in self._split(y[k - 1:k]))
+        xo = z[P_X11:P_U]
+        zeta = self._zeta(xo[None], y[k - 1:k])[0]
+        xo_new = xo + self.dt * (d.A @ xo + d.B @ np.concatenate([acc, x12])
+                                 + d.L @ (yo - d.C @ xo) - d.V @ (d.V.T @ xo) / d.tau_w)
+        return np.concatenate([xo_new, self._e * z[P_U:P_END] + (1.0 - self._e) * zeta
+                               / self._kt])
+
+    def estimate(self, z) -> np.ndarray:
+        return np.array(z, dtype=float)
+
+    def run(self, t, u, y, x0=None) -> PaperOutputTrajectory:
+        """Compiled: the observer (``_lti_run``), then (36) and (37) (``_first_order_zoh``)."""
+        t, u, y, x0 = self.check_data(t, u, y, x0)
+        z0 = self.initial_state(t, u, y, x0)
+        x12, _, acc, yo = self._split(y)
+        W = np.ascontiguousarray(np.hstack([acc, x12, yo]))
+        sec, X = self.timed(_lti_run, z0[P_X11:P_U].copy(), self._F, self._G, W)
+        zeta = self._zeta(X, y)
+        sec2, U = self.timed(_first_order_zoh, zeta / self._kt, self._e, z0[P_U:P_END].copy())
+        return PaperOutputTrajectory(t, np.hstack([X, U]), self.state_names, seconds=sec + sec2,
+                                     estimator=type(self).__name__, zeta=zeta)
 
 
 def road_lost_subspace(p, design: PaperOutputDesign) -> np.ndarray:

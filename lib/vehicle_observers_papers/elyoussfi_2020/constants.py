@@ -83,7 +83,7 @@ def build_model(rho_value: float | None = None, variant: str = "yaw"):
     """Identify the fuzzy forces from the Pacejka tyres and build the uncertain TS model.
 
     ``variant="yaw"`` (main problem, v_y unmeasured) or ``"full"`` (comparison, C = I)."""
-    from vehicle_observers.observers.uio import UncertainLateralTS, fit_fuzzy_forces
+    from vehicle_observers.models.uncertain_lateral import UncertainLateralTS, fit_fuzzy_forces
 
     ty = fit_fuzzy_forces(tire_f, tire_r, alpha_fit_max, n_fit, fit_x0)
     r = rho if rho_value is None else rho_value

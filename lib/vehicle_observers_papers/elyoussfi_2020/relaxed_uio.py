@@ -2,8 +2,9 @@
 
 Each function runs one experiment of the notebook and returns plain dicts / arrays, or
 builds one figure and returns the matplotlib Figure, so the notebook stays a few lines per
-cell. Equations and reconstruction choices: :mod:`vehicle_observers.observers.uio` (model (1)-(15),
-UIO (20)-(24), designs (a) [22] and (b) Theorem 2), :mod:`vehicle_observers.baselines.uio_ekf`
+cell. Equations and reconstruction choices: :mod:`vehicle_observers.models.uncertain_lateral`
+(model (1)-(15)), :mod:`vehicle_observers.observers.uio` (UIO (20)-(24), designs (a) [22] and
+(b) Theorem 2), :mod:`.scenario` (signals, scenario, metrics), :mod:`vehicle_observers.baselines.uio_ekf`
 (EKF/UKF with the fault as a random-walk state) and
 :mod:`vehicle_observers_papers.elyoussfi_2020.constants` (constants).
 
@@ -21,13 +22,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from vehicle_observers.baselines import uio_ekf as ub
 from vehicle_observers.core.metrics import rmse
-from vehicle_observers.core.timing import best_time
+from vehicle_observers.models import uncertain_lateral as ul
 from vehicle_observers.observers import uio
 from vehicle_observers.results.plotting import TRUTH, color, time_series
 from vehicle_observers.results.rules import Rule, fmt
 from vehicle_observers.results.tables import Table, show_table
 
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
+from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 PAPER = "El Youssfi 2020 (relaxed UIO)"
 #: state names / units of the augmented state X = [v_y, r, f]
@@ -44,7 +46,7 @@ TAU_NOISE = 1.0
 
 
 # ------------------------------------------------------------ identification, designs ----
-def fit_metrics(ty: uio.FuzzyTyres) -> dict:
+def fit_metrics(ty: ul.FuzzyTyres) -> dict:
     """Fuzzy cornering forces (2) identified by LM (Sec. 2.2): bell parameters ``a, c``
     [deg], ``b`` [-], rule stiffnesses ``C_f, C_r`` [N/rad] and the relative residuals."""
     return {
@@ -58,7 +60,7 @@ def fit_metrics(ty: uio.FuzzyTyres) -> dict:
     }
 
 
-def phi_design(model: uio.UncertainLateralTS, delta_dot_max: float = P.delta_dot_max) -> dict:
+def phi_design(model: ul.UncertainLateralTS, delta_dot_max: float = P.delta_dot_max) -> dict:
     """Assumption 2 bound phi [1/s] from the stated input bounds (steering rate
     ``delta_dot_max`` [rad/s], fault rate ``model.scale_fdot``, speed ``model.vx``, tyre
     peak forces): :func:`uio.phi_bound`. Not taken from a run."""
@@ -75,7 +77,7 @@ def phi_metrics(pb: dict) -> dict:
             "phi_design": (pb["phi"], "1/s", "Assumption 2 bound used by design (b)")}
 
 
-def structure_metrics(model: uio.UncertainLateralTS, st: dict) -> dict:
+def structure_metrics(model: ul.UncertainLateralTS, st: dict) -> dict:
     """Existence conditions of the UIO: ranks of ``Mbar`` and ``Cbar Mbar`` (Assumption 1),
     whether v_y is measured (a row of C picks it), the (23a) residual, and the unobservable
     modes of ``(T Abar_i, Cbar)`` [1/s] (detectability: all must be < 0)."""
@@ -102,7 +104,7 @@ def unobservable_modes(st: dict, tol: float = 1e-8) -> list[float]:
     return out
 
 
-def designs(model: uio.UncertainLateralTS, st: dict, alpha: float, phi: float, mu=P.mu_grid,
+def designs(model: ul.UncertainLateralTS, st: dict, alpha: float, phi: float, mu=P.mu_grid,
             eps: float | None = None):
     """Designs (a) [22] (common quadratic) and (b) Theorem 2 (relaxed, ``mu`` line-searched
     over ``mu`` [s]) at decay rate ``alpha`` [1/s] and ``|h'| <= phi`` [1/s], poles in
@@ -149,22 +151,22 @@ def remark1(st: dict, ga: uio.UIOGains, phi: float, mu: float = 1e-7):
 
 
 # ---------------------------------------------------------------------- simulation -------
-def simulation(model: uio.UncertainLateralTS, gains: dict, t_end: float, seed: int,
+def simulation(model: ul.UncertainLateralTS, gains: dict, t_end: float, seed: int,
                fault_kw: dict | None = None) -> dict:
-    """Figs. 3-7 analogues: the faulty uncertain vehicle (:func:`uio.make_scenario`, fault at
+    """Figs. 3-7 analogues: the faulty uncertain vehicle (:func:`.scenario.make_scenario`, fault at
     ``P.t_fault``, 1 kHz) with sensor noise (``sc``) and without (``sc0``, same seed), and
     the observers ``gains = {"a": UIOGains, "b": UIOGains}`` on both, scheduled on their
     own estimates (``ev[k]``, ``ev0[k]``), plus (b) fed the true memberships (``evt``,
     ``evt0``: comparison only, they contain the true slip angle and fault)."""
     kw = {"fault_kw": fault_kw or {"offset": P.fault_offset, "amp": P.fault_amp}}
-    sc = uio.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, **kw)
-    sc0 = uio.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, noise=False,
+    sc = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, **kw)
+    sc0 = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, noise=False,
                             **kw)
     return {"t_end": t_end, "seed": seed, "sc": sc, "sc0": sc0,
-            "ev": {k: uio.evaluate(g, sc, model) for k, g in gains.items()},
-            "ev0": {k: uio.evaluate(g, sc0, model) for k, g in gains.items()},
-            "evt": uio.evaluate(gains["b"], sc, model, premise="true"),
-            "evt0": uio.evaluate(gains["b"], sc0, model, premise="true")}
+            "ev": {k: sn.evaluate(g, sc, model) for k, g in gains.items()},
+            "ev0": {k: sn.evaluate(g, sc0, model) for k, g in gains.items()},
+            "evt": sn.evaluate(gains["b"], sc, model, premise="true"),
+            "evt0": sn.evaluate(gains["b"], sc0, model, premise="true")}
 
 
 def convergence_time(t, err, t_stop: float, frac: float = 0.1) -> float:
@@ -256,12 +258,12 @@ def full_variant(seed: int, t_end: float, quick: bool) -> dict:
     model = P.build_model(variant="full")
     st = uio.structure(model)
     ga, gb = designs(model, st, P.alpha_full, P.phi_full)
-    sc = uio.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed)
+    sc = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed)
     fm = uio.feasibility_map(model, [0.0, 15.0], [0.0, P.phi_full], P.mu_grid, st, P.radius,
                              gamma_level=0.55)
     fm["ratio"] = fm["gamma_b"] / fm["gamma_a"][:, None]
     return {"model": model, "st": st, "ga": ga, "gb": gb, "sc": sc, "fm": fm,
-            "evb": uio.evaluate(gb, sc, model)}
+            "evb": sn.evaluate(gb, sc, model)}
 
 
 def full_variant_metrics(fv: dict) -> dict:
@@ -277,7 +279,7 @@ def full_variant_metrics(fv: dict) -> dict:
 
 
 # ------------------------------------------------------------------ EKF baseline ---------
-def ekf_baseline(model: uio.UncertainLateralTS, sim: dict, tau: float = TAU_NOISE) -> dict:
+def ekf_baseline(model: ul.UncertainLateralTS, sim: dict, tau: float = TAU_NOISE) -> dict:
     """filterpy EKF with the fault as a random-walk state (:mod:`.baselines.uio_ekf`, Q/R by
     :func:`ub.noise_rule`, per-sample rule), scheduled on its own estimated premises, on the
     same noisy / noise-free runs (``evk``, ``evk0``), and the same EKF with the
@@ -286,10 +288,10 @@ def ekf_baseline(model: uio.UncertainLateralTS, sim: dict, tau: float = TAU_NOIS
     Qt, _, _ = ub.noise_rule(model, P.dt, tau=tau)
     kw = {"h": "estimated", "kind": "ekf"}
     return {"qinfo": {**qinfo, "tau": tau},
-            "evk": ub.evaluate_filter(model, sim["sc"], **kw),
-            "evk0": ub.evaluate_filter(model, sim["sc0"], **kw),
-            "evk_tau": ub.evaluate_filter(model, sim["sc"], Q=Qt, R=Rb, **kw),
-            "evk0_tau": ub.evaluate_filter(model, sim["sc0"], Q=Qt, R=Rb, **kw)}
+            "evk": sn.evaluate_filter(model, sim["sc"], **kw),
+            "evk0": sn.evaluate_filter(model, sim["sc0"], **kw),
+            "evk_tau": sn.evaluate_filter(model, sim["sc"], Q=Qt, R=Rb, **kw),
+            "evk0_tau": sn.evaluate_filter(model, sim["sc0"], Q=Qt, R=Rb, **kw)}
 
 
 def settled_fault_rmse(ev: dict, sc: dict, after: float = 0.5) -> float:
@@ -341,16 +343,16 @@ def cost_timings(sim: dict, gb: uio.UIOGains, model, evk: dict) -> dict:
     """Wall-clock cost per sample [us] of the compiled UIO (b) loop (best of 3, after a first
     run compiled it) and of filterpy's EKF: for :meth:`Report.timing`, never metrics."""
     sc = sim["sc"]
-    sec, _ = best_time(lambda: uio.run_observer_estimated(
-        gb, model.tyres, model.l_f, model.vx, sc["delta"], sc["y"], P.dt), 3)
+    obs = uio.UIObserver(gb, model, P.dt)
+    sec = min(obs.run(sc["t"], sc["delta"], sc["y"]).seconds for _ in range(3))
     us_uio = 1e6 * sec / len(sc["t"])
     return {"us_per_step_uio": (us_uio, "us", "UIO (b), numba RK4 loop, best of 3"),
-            "us_per_step_ekf": (evk["us_per_step"], "us", "filterpy EKF"),
-            "cost_ratio_ekf_over_uio": (evk["us_per_step"] / us_uio, "", "per sample")}
+            "us_per_step_ekf": (evk["run"].us_per_step, "us", "filterpy EKF"),
+            "cost_ratio_ekf_over_uio": (evk["run"].us_per_step / us_uio, "", "per sample")}
 
 
 # --------------------------------------------------------------- feasibility map ---------
-def feasibility(model: uio.UncertainLateralTS, st: dict, phi: float, quick: bool) -> dict:
+def feasibility(model: ul.UncertainLateralTS, st: dict, phi: float, quick: bool) -> dict:
     """Best certified gamma of (a) and (b) on the (alpha [1/s], phi [1/s]) grid
     (:func:`uio.feasibility_map`, feasible = a certified solution exists), plus ``ratio``
     = gamma_b / gamma_a. alpha up to 1.2 1/s (above the slowest unobservable v_y mode
@@ -489,7 +491,7 @@ def claims(g: dict) -> list[dict]:
 
 
 # -------------------------------------------------------------------------- figures ------
-def fig_fuzzy_fit(model: uio.UncertainLateralTS):
+def fig_fuzzy_fit(model: ul.UncertainLateralTS):
     """Sec. 2.2: Pacejka vs identified fuzzy forces (2) per axle [N] over the fit range
     ``|alpha| <= P.alpha_fit_max``, and the memberships ``h_1, h_2`` of the front slip."""
     ty = model.tyres

@@ -9,9 +9,11 @@ from __future__ import annotations
 import numpy as np
 from vehicle_observers.baselines import uio_ekf as uio_baseline
 from vehicle_observers.core.timing import best_time
+from vehicle_observers.models import uncertain_lateral as ul
 from vehicle_observers.observers import uio
 
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
+from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 
 def _best_of(fn, repeat=3):
@@ -25,23 +27,23 @@ def run(quick: bool = False) -> list[dict]:
     phi = uio.phi_bound(model, P.delta_dot_max, P.scale_fdot, P.tire_f.D, P.tire_r.D)["phi"]
     gb = uio.design_relaxed(model, P.alpha_design, phi, P.mu_grid, st, radius=P.radius)
     t_end = 10.0 if quick else 60.0
-    sc = uio.make_scenario(model, 1.0, P.dt, 0.5, P.x0_true, seed=0)  # warm-up / compile
-    prem = (model.tyres, model.l_f, model.vx)
-    for g in (ga, gb):
-        uio.run_observer_estimated(g, *prem, sc["delta"], sc["y"], P.dt)
+    sc = sn.make_scenario(model, 1.0, P.dt, 0.5, P.x0_true, seed=0)  # warm-up / compile
+    obs = {g.design: uio.UIObserver(g, model, P.dt) for g in (ga, gb)}
+    for o in obs.values():
+        o.run(sc["t"], sc["delta"], sc["y"])
     n = int(round(t_end / P.dt)) + 1
     t = np.arange(n) * P.dt
-    delta = uio.steering_signal(t)
-    f = uio.fault_signal(t, 0.4 * t_end)
-    F = uio.uncertainty_signal(t, 0)
+    delta = sn.steering_signal(t)
+    f = sn.fault_signal(t, 0.4 * t_end)
+    F = sn.uncertainty_signal(t, 0)
     rows = []
-    sec = _best_of(lambda: uio.simulate_truth(model, P.x0_true, delta, f, F, P.dt), 3)
+    sec = _best_of(lambda: ul.simulate_truth(model, P.x0_true, delta, f, F, P.dt), 3)
     rows.append({"component": "uio truth model RK4 (2 substeps)", "steps": n, "seconds": sec,
                  "us_per_step": sec / n * 1e6})
-    X = uio.simulate_truth(model, P.x0_true, delta, f, F, P.dt)
+    X = ul.simulate_truth(model, P.x0_true, delta, f, F, P.dt)
     y = X @ model.C.T + f[:, None] * model.F_s[:, 0][None, :]
     for name, g in (("uio (a) quadratic [22]", ga), ("uio (b) relaxed Thm 2", gb)):
-        sec = _best_of(lambda g=g: uio.run_observer_estimated(g, *prem, delta, y, P.dt), 5)
+        sec = _best_of(lambda g=g: obs[g.design].run(t, delta, y), 5)
         rows.append({"component": f"{name} observer RK4", "steps": n, "seconds": sec,
                      "us_per_step": sec / n * 1e6})
     m = 2000 if quick else 10000  # pure Python: a window, cost per step is state-independent

@@ -3,11 +3,12 @@
 Each experiment function returns plain dicts / arrays and a ``"metrics"`` dict
 ``{name: (value, unit, note)}`` (the notebook records it with
 :meth:`~vehicle_observers.results.reporting.Report.record`, in the same order); each
-``fig_*`` function returns a matplotlib Figure that the notebook saves with ``rep.savefig``.
-Equations and the observer itself: see
+``fig_*`` function returns a matplotlib Figure that the notebook saves with ``rep.savefig``
+(plot helpers: :mod:`.plots`). Equations and the observer itself: see
 :mod:`vehicle_observers.observers.dmvt` (DMVT observer, LMIs (23), regions (35)-(36)),
-:mod:`vehicle_observers.models.bicycle` (model (25), tracking law (27), Jacobian (31)-(33)) and
-:mod:`vehicle_observers.baselines.dmvt_ekf` (filterpy EKF/UKF on the same data).
+:mod:`vehicle_observers.models.bicycle` (model (25), tracking law (27), Jacobian (31)-(33)),
+:mod:`vehicle_observers.models.ts` (Jacobian TS model (14)-(18)) and
+:mod:`vehicle_observers.baselines.dmvt_ekf` (filterpy EKF on the same data).
 
 States ``x1..x4`` (yaw [rad], yaw-rate-like ``psi_beta`` [1/m], roll [rad], roll rate
 [rad/s]), input ``u`` (normalised steering torque), ``C`` (2, 4) measures ``x1`` and ``x3``.
@@ -15,18 +16,25 @@ States ``x1..x4`` (yaw [rad], yaw-rate-like ``psi_beta`` [1/m], roll [rad], roll
 
 from __future__ import annotations
 
+import dataclasses
+
 import matplotlib.pyplot as plt
 import numpy as np
 from vehicle_observers.baselines import dmvt_ekf as bb
-from vehicle_observers.core.metrics import rmse
+from vehicle_observers.baselines.ekf_observer import filter_trajectory
+from vehicle_observers.baselines.filterpy_generic import run_ukf
+from vehicle_observers.core.metrics import overshoot, rmse, settling_time
+from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.design.lmi import disk, halfplane
 from vehicle_observers.models import bicycle as b
+from vehicle_observers.models.ts import JacobianTS, jacobian_ts_from_samples, numerical_jacobian
 from vehicle_observers.observers import dmvt
 from vehicle_observers.results import plotting as PLOT
 from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
 
 from vehicle_observers_papers.ichalal_2011 import constants as ic
+from vehicle_observers_papers.ichalal_2011 import plots as pl
 
 PAPER = "Ichalal 2011"
 #: colours of no region, region, EKF, UKF (:data:`vehicle_observers.results.plotting.COLORS`)
@@ -94,9 +102,9 @@ def jacobian_study(bp, t, X, U, fd_every: int = 50) -> dict:
     """
     J = b.jacobian(X, U, bp)
     s = slice(None, None, fd_every)
-    Jfd = dmvt.numerical_jacobian(lambda x, u: b.rhs(x, u, bp), X[s], U[s])
-    jts = dmvt.jacobian_ts_from_samples(J, names=["xi1", "xi2"])
-    pr = dmvt.printed_jacobian_entries(X, U)
+    Jfd = numerical_jacobian(lambda x, u: b.rhs(x, u, bp), X[s], U[s])
+    jts = jacobian_ts_from_samples(J, names=["xi1", "xi2"])
+    pr = ic.printed_jacobian_entries(X, U)
     cos_term = bp.v**2 / bp.p * np.cos(X[:, 2])
     metrics = {
         "jacobian_fd_max_abs_diff": (np.abs(J[s] - Jfd).max(), "",
@@ -182,7 +190,7 @@ def observer_runs(bp, ts, designs: dict, C, jts, T: float = 10.0, dt: float = 1e
     ``x(0) = 0``, ``xhat(0) = xhat0`` over ``[0, T)`` s.
 
     Returns ``t`` (N,), ``runs`` ``{key: (X (N, 4), Xhat (N, 4), U (N,))}``, ``errors``
-    ``{key: dmvt.error_metrics}`` and ``metrics``: per state overshoot (relative to
+    ``{key: error_metrics}`` and ``metrics``: per state overshoot (relative to
     ``|e(0)|``), 2 % settling [s], max |e|. The DMVT check on the segments ``[xhat, x]`` is
     :func:`transient_certificate`.
     """
@@ -192,7 +200,7 @@ def observer_runs(bp, ts, designs: dict, C, jts, T: float = 10.0, dt: float = 1e
     for key, d in designs.items():
         Xs, Xh, Us = dmvt.simulate_bicycle_observer(bp, t, ts, d.L, C, xhat0=xhat0)
         runs[key] = (Xs, Xh, Us)
-        em[key] = dmvt.error_metrics(t, Xs, Xh)
+        em[key] = error_metrics(t, Xs, Xh)
         metrics[f"overshoot_{key}"] = (em[key]["overshoot"], "", "per state x1..x4")
         metrics[f"settling2pct_{key}"] = (em[key]["settling"], "s", "per state x1..x4")
         metrics[f"max_abs_err_{key}"] = (em[key]["max_abs"], "", "per state x1..x4")
@@ -253,7 +261,7 @@ def transient_certificate(bp, ts, designs: dict, C, jts, t, E0, a: float, R: flo
     lo = np.min([jts.lo] + [c["lo"] for c in before.values()], axis=0)
     hi = np.max([jts.hi] + [c["hi"] for c in before.values()], axis=0)
     span = hi - lo
-    wide = dmvt.JacobianTS(jts.A0, jts.entries, lo - margin * span, hi + margin * span,
+    wide = JacobianTS(jts.A0, jts.entries, lo - margin * span, hi + margin * span,
                            jts.names)
     dw = {k: dmvt.design_dmvt_observer(
         wide.vertices, C, r=r, region=None if k == "noreg" else region(a, R),
@@ -295,7 +303,7 @@ def bounds_variants(bp, t, X, U, t_after: float = 5.0) -> dict:
     the variants, of ``max(|lo - printed lo|, |hi - printed hi|)`` (same units).
     """
     J = b.jacobian(X, U, bp)[:, 3, 1:3]
-    pr, pr3 = (dmvt.printed_jacobian_entries(X, U, include_third=k) for k in (False, True))
+    pr, pr3 = (ic.printed_jacobian_entries(X, U, include_third=k) for k in (False, True))
     late = np.asarray(t) >= t_after
     v1 = {"exact": J[:, 0], "(v^2/p) cos x3": bp.v**2 / bp.p * np.cos(X[:, 2]),
           "(32) literal": pr[:, 0]}
@@ -325,11 +333,21 @@ def variants_table(var: dict, m: dict):
 
 def initial_error_study(bp, ts, designs: dict, C, t, n: int, seed: int = 0,
                         scale=E0_SCALE) -> dict:
-    """:func:`dmvt.initial_error_study` (``n`` random ``e(0) ~ U(+-scale)``, drawn from
-    ``seed``, same draws for every design) and its ``metrics``: median overshoot and 2 %
-    settling [s] per state and design, share of runs where the region design has the
-    smaller overshoot, per state (4,)."""
-    study = dmvt.initial_error_study(bp, t, ts, designs, C, n, scale=scale, seed=seed)
+    """Observer co-simulations (:func:`dmvt.simulate_bicycle_observer`) from ``x(0) = 0``
+    and ``n`` random initial errors ``e0 ~ U(-scale, scale)`` (per state, drawn from
+    ``np.random.default_rng(seed)``, the same draws for every design): ``study`` =
+    ``{design: {"overshoot": (n, 4), "settling": (n, 4)}, "e0": (n, 4)}`` and its
+    ``metrics``: median overshoot and 2 % settling [s] per state and design, share of runs
+    where the region design has the smaller overshoot, per state (4,)."""
+    E0 = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(n, 4)) * np.asarray(scale, float)
+    study: dict = {"e0": E0}
+    for name, des in designs.items():
+        ov, st = np.empty((n, 4)), np.empty((n, 4))
+        for k, e0 in enumerate(E0):
+            X, Xh, _ = dmvt.simulate_bicycle_observer(bp, t, ts, des.L, C, xhat0=-e0)
+            m = error_metrics(t, X, Xh)
+            ov[k], st[k] = m["overshoot"], m["settling"]
+        study[name] = {"overshoot": ov, "settling": st}
     metrics = {}
     for key in _KEYS:
         metrics[f"mc_median_overshoot_{key}"] = (np.median(study[key]["overshoot"], axis=0), "",
@@ -354,7 +372,8 @@ def filter_baseline(bp, ts, designs: dict, C, obs: dict, T: float, t_late: float
     (:func:`bicycle_baseline.discretisation_q`), ``P0 = diag(E0_SCALE^2)``.
 
     Returns ``tk`` (nk,), ``Xk`` (nk, 4), ``Q`` (4, 4), ``t_late``, ``cmp``
-    ``{"clean"|"noisy": {est: EstimatorResult}}`` (est in noreg, reg, ekf, ukf) and
+    ``{"clean"|"noisy": {est: Trajectory}}`` (est in noreg, reg, ekf, ukf; the metrics of
+    :func:`scored_run` in ``info``) and
     ``metrics``: RMSE (window, ``t >= t_late``), overshoot, settling [s] per run and
     estimator; UKF SPD repairs, max |EKF - UKF|, share of (run, window, state) where the EKF
     RMSE is below both DMVT designs. ``timings`` (wall clock, for ``Report.timing`` only):
@@ -372,23 +391,24 @@ def filter_baseline(bp, ts, designs: dict, C, obs: dict, T: float, t_late: float
     Rn, P0 = sigma**2 * np.eye(2), np.diag(np.array(E0_SCALE) ** 2)
     noise = sigma * np.random.default_rng(seed).standard_normal((nk, 2))
     gains = {k: d.L for k, d in designs.items()}
-    cmp = {sc: bb.compare_estimators(bp, ts, gains, C, tk, Xk, Uk,
-                                     Xk @ C.T + (noise if sc == "noisy" else 0.0),
-                                     np.asarray(xhat0, dtype=float), Qc, Rn, P0, t_late=t_late)
+    cmp = {sc: compare_estimators(bp, ts, gains, C, tk, Xk, Uk,
+                                  Xk @ C.T + (noise if sc == "noisy" else 0.0),
+                                  np.asarray(xhat0, dtype=float), Qc, Rn, P0, t_late=t_late)
            for sc in ("clean", "noisy")}
     metrics = {"kf_Q_diag": (np.diag(Qc), "", "continuous Q from the ZOH-RK4 residual")}
     for sc, res in cmp.items():
         for est, r in res.items():
             for what, unit in (("rmse", ""), ("rmse_late", ""), ("overshoot", ""),
                                ("settling", "s")):
-                metrics[f"cmp_{sc}_{what}_{est}"] = (getattr(r, what), unit, f"{r.name}, x1..x4")
+                metrics[f"cmp_{sc}_{what}_{est}"] = (r.info[what], unit,
+                                                     f"{r.estimator}, x1..x4")
     timings = {f"{sc}_us_per_step_{est}": (r.us_per_step, "us")
                for sc, res in cmp.items() for est, r in res.items()}
     us_dmvt = np.mean([cmp[sc][k].us_per_step for sc in cmp for k in designs])
     us_ekf = np.mean([cmp[sc]["ekf"].us_per_step for sc in cmp])
     timings["cost_ratio_ekf_dmvt"] = (us_ekf / us_dmvt, "")
     metrics["ukf_spd_repairs"] = (sum(cmp[sc]["ukf"].info["spd_repairs"] for sc in cmp), "")
-    metrics["ekf_ukf_max_abs_diff"] = (max(np.abs(cmp[sc]["ekf"].xhat - cmp[sc]["ukf"].xhat).max()
+    metrics["ekf_ukf_max_abs_diff"] = (max(np.abs(cmp[sc]["ekf"].x - cmp[sc]["ukf"].x).max()
                                            for sc in cmp), "", "EKF vs UKF estimates")
     metrics["ekf_rmse_below_dmvt_share"] = (win_share(cmp), "", "share of (run, window, state) "
                                             "where the EKF RMSE is below both DMVT designs")
@@ -398,19 +418,83 @@ def filter_baseline(bp, ts, designs: dict, C, obs: dict, T: float, t_late: float
 
 def win_share(cmp: dict, est: str = "ekf", rivals=_KEYS) -> float:
     """Share of the (run, window, state) cases, over the runs of ``cmp``
-    (``{run: {estimator: EstimatorResult}}``), windows ``rmse`` / ``rmse_late`` and the 4
-    states, where ``est`` has a strictly smaller RMSE than every estimator in ``rivals``."""
-    wins = [getattr(cmp[sc][est], w) < np.min([getattr(cmp[sc][k], w) for k in rivals], axis=0)
+    (``{run: {estimator: Trajectory}}``, metrics in ``info``), windows ``rmse`` /
+    ``rmse_late`` and the 4 states, where ``est`` has a strictly smaller RMSE than every
+    estimator in ``rivals``."""
+    wins = [cmp[sc][est].info[w] < np.min([cmp[sc][k].info[w] for k in rivals], axis=0)
             for sc in cmp for w in ("rmse", "rmse_late")]
     return float(np.mean(wins))
 
 
 def baseline_table(base: dict):
     """Rounded table: RMSE over the window and late, per run and estimator (x1..x4)."""
-    rows = [{"data": sc, "estimator": r.name, "RMSE x1..x4": list(r.rmse),
-             "late RMSE x1..x4": list(r.rmse_late)}
+    rows = [{"data": sc, "estimator": r.estimator, "RMSE x1..x4": list(r.info["rmse"]),
+             "late RMSE x1..x4": list(r.info["rmse_late"])}
             for sc, res in base["cmp"].items() for r in res.values()]
     return show_table(rows, digits=2)
+
+
+def error_metrics(t, X, Xhat, band: float = 0.02) -> dict:
+    """Per-state error overshoot (relative to |e(0)|) and ``band`` settling time [s]
+    (band relative to max |e|), using :mod:`vehicle_observers.core.metrics`, and max |e|."""
+    E = np.asarray(X) - np.asarray(Xhat)
+    return {"overshoot": np.array([overshoot(E[:, i]) for i in range(E.shape[1])]),
+            "settling": np.array([settling_time(t, E[:, i], band=band)
+                                  for i in range(E.shape[1])]),
+            "max_abs": np.abs(E).max(axis=0)}
+
+
+def scored_run(tr: Trajectory, t, X, xhat0, t_late: float, name: str | None = None):
+    """``tr`` (one estimator on one data set) with the comparison metrics in ``info``:
+    per-state ``rmse`` (4,) over the window and ``rmse_late`` (4,) for ``t >= t_late``
+    (units of x1..x4: rad, rad/m, rad, rad/s), error ``overshoot`` (4,) and 2 % ``settling``
+    (4,) [s] (:func:`error_metrics`); ``name`` replaces ``tr.estimator``.
+
+    Overshoot and settling use the error sequence that starts from the prior error
+    ``x(0) - xhat0`` for every estimator: the filters' recorded ``x_0|0`` already contains
+    the first measurement update, which would otherwise become the reference ``|e(0)|``."""
+    t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
+    Xh0 = tr.x.copy()
+    Xh0[0] = xhat0  # error metrics start from the prior error for every estimator
+    E = X - tr.x
+    late = t >= t_late
+    if not late.any():
+        raise ValueError(f"t_late = {t_late:g} s is past the end of the run (last sample "
+                         f"t = {t[-1]:g} s): no sample for rmse_late")
+    m = error_metrics(t, X, Xh0)
+    info = {**tr.info, "rmse": np.sqrt(np.mean(E**2, axis=0)),
+            "rmse_late": np.sqrt(np.mean(E[late]**2, axis=0)), "overshoot": m["overshoot"],
+            "settling": m["settling"]}
+    return dataclasses.replace(tr, info=info, estimator=name or tr.estimator)
+
+
+def compare_estimators(bp, ts, gains: dict, C, t, X, U, Y, xhat0, Q, R, P0,
+                       t_late: float = 2.0, ukf: bool = True) -> dict:
+    """DMVT observers (:class:`dmvt.DMVTObserver`, one per entry of ``gains``: name -> L (r,
+    4, 2)), the filterpy EKF (:class:`bb.BicycleEKF`) and UKF on the same data: time grid
+    ``t`` (N,) [s] (uniform), true states ``X`` (N, 4), inputs ``U`` (N,), measurements ``Y``
+    (N, 2), initial estimate ``xhat0`` (4,), filter matrices ``Q`` (4, 4) continuous
+    intensity, ``R`` (2, 2) [rad^2], ``P0`` (4, 4).
+
+    Returns ``{name: Trajectory}`` (metrics of :func:`scored_run` in ``info``) with keys of
+    ``gains`` plus ``"ekf"`` and ``"ukf"``.
+    """
+    t = np.asarray(t, dtype=float)
+    dt = float(t[1] - t[0])
+    if not np.allclose(np.diff(t), dt, rtol=1e-9, atol=0.0):
+        raise ValueError("time grid t must be uniform")
+    X, Y = np.asarray(X, dtype=float), np.atleast_2d(np.asarray(Y, dtype=float))
+    u = np.ravel(U)[:, None]
+    out = {}
+    for name, L in gains.items():
+        tr = dmvt.DMVTObserver(L, ts, bp, C, dt).run(t, u, Y, xhat0)
+        out[name] = scored_run(tr, t, X, xhat0, t_late, name)
+    ekf = bb.BicycleEKF(bp, C, dt, Q, R, P0)
+    out["ekf"] = scored_run(ekf.run(t, u, Y, xhat0), t, X, xhat0, t_late)
+    if ukf:
+        run = run_ukf(ekf.f, ekf.h, Y, u, dt, xhat0, P0, Q, R)
+        out["ukf"] = scored_run(filter_trajectory(t, run, ekf.state_names), t, X, xhat0, t_late)
+    return out
 
 
 def region_sweep_study(vertices, C, a_grid, R_grid, tol_R: float = 0.1,
@@ -642,7 +726,7 @@ def _baseline_note(m: dict) -> str:
 def fig_ts_exactness(mod: dict):
     """Fig. 2 analogue: states of (25)+(27) and of the 8-rule TS model, (2, 2) axes."""
     fig, axs = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
-    dmvt.plot_estimates(axs, mod["t"], mod["X"], mod["Xts"], label="TS model (8 rules)",
+    pl.plot_estimates(axs, mod["t"], mod["X"], mod["Xts"], label="TS model (8 rules)",
                         color="C0")
     fig.suptitle("Fig. 2 analogue: nonlinear model (25)+(27) and its exact TS form")
     return fig
@@ -651,7 +735,7 @@ def fig_ts_exactness(mod: dict):
 def fig_tracking(mod: dict, k1: float = 10.0, k2: float = 10.0):
     """Fig. 3 analogue: x3 vs sin t, x4 vs cos t and the input u of (27), 3 axes."""
     fig, axs = plt.subplots(3, 1, figsize=(9, 6), sharex=True)
-    dmvt.plot_tracking(axs, mod["t"], mod["X"], mod["U"])
+    pl.plot_tracking(axs, mod["t"], mod["X"], mod["U"])
     gains = f"k1 = k2 = {k1:g}" if k1 == k2 else f"k1 = {k1:g}, k2 = {k2:g}"
     fig.suptitle(f"Fig. 3 analogue: trajectory tracking with (27), {gains}")
     return fig
@@ -663,9 +747,9 @@ def fig_jacobian_bounds(jac: dict):
     fig, axs = plt.subplots(2, 1, figsize=(11, 5), sharex=True)
     t, pr = jac["t"], jac["printed"]
     pr_plot = np.column_stack([np.full(len(t), np.nan), pr[:, 1]])
-    dmvt.plot_jacobian_bounds(axs, t, jac["J"][:, 3, 1:3], jac["jts"],
-                              (ic.xi1_bounds_printed, ic.xi2_bounds_printed), pr_plot,
-                              units=XI_LABEL_UNITS)
+    pl.plot_jacobian_bounds(axs, t, jac["J"][:, 3, 1:3], jac["jts"],
+                            (ic.xi1_bounds_printed, ic.xi2_bounds_printed), pr_plot,
+                            units=XI_LABEL_UNITS)
     fig.suptitle("Jacobian premise variables along the closed-loop run: derived vs printed "
                  "bounds")
     return fig
@@ -683,10 +767,10 @@ def fig_poles(designs: dict, a: float, R: float):
     reg = region(a, R)
     fig, axs = plt.subplots(1, 2, figsize=(11, 5.6))
     n = designs["noreg"].poles.eigs.shape[0] * designs["noreg"].poles.eigs.shape[1]
-    dmvt.plot_poles(axs[0], {lab[k]: d for k, d in designs.items()}, reg,
+    pl.plot_poles(axs[0], {lab[k]: d for k, d in designs.items()}, reg,
                     colors=(COLORS["noreg"], COLORS["reg"]))
     axs[0].set_title(rf"eigenvalues of $\mathcal{{A}}_i - L_j C$, all {n} vertex pairs")
-    dmvt.plot_poles(axs[1], {lab["reg"]: designs["reg"]}, reg, colors=(COLORS["reg"],),
+    pl.plot_poles(axs[1], {lab["reg"]: designs["reg"]}, reg, colors=(COLORS["reg"],),
                     legend=False)
     axs[1].set_aspect("equal", adjustable="box")
     axs[1].set_xlim(-R - 1, 1)
@@ -699,7 +783,7 @@ def fig_observer_run(obs: dict, key: str, title: str):
     """Fig. 4 / 5 analogue: states and estimates of the run ``key``, (2, 2) axes."""
     fig, axs = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
     Xs, Xh, _ = obs["runs"][key]
-    dmvt.plot_estimates(axs, obs["t"], Xs, Xh, color=COLORS[key])
+    pl.plot_estimates(axs, obs["t"], Xs, Xh, color=COLORS[key])
     fig.suptitle(title)
     return fig
 
@@ -711,9 +795,9 @@ def fig_errors(obs: dict, t_max: float = 3.0):
     for key in ("noreg", "reg"):
         Xs, Xh, _ = obs["runs"][key]
         lab = "no region" if key == "noreg" else "with region"
-        dmvt.plot_estimates(axs, obs["t"], Xs - Xh, Xs - Xh, label=f"error, {lab}",
+        pl.plot_estimates(axs, obs["t"], Xs - Xh, Xs - Xh, label=f"error, {lab}",
                             color=COLORS[key], truth=False)
-    for ax, lab in zip(axs.ravel(), dmvt.STATE_LABELS, strict=True):
+    for ax, lab in zip(axs.ravel(), pl.STATE_LABELS, strict=True):
         ax.set_xlim(0, t_max)
         ax.set_ylabel("$e_" + lab[3] + "$ " + lab.split(" ")[-1])
     fig.suptitle(rf"Estimation errors $e = x - \hat x$ (first {t_max:g} s)")
@@ -728,14 +812,14 @@ def fig_ekf_ukf_errors(base: dict, a: float, R: float):
     tk, Xk, cmp = base["tk"], base["Xk"], base["cmp"]
     fig, axs = plt.subplots(4, 2, figsize=(12.5, 9), sharex=True, sharey="row")
     labels = {k: f"DMVT, {v}" for k, v in _labels(a, R).items()}
-    units = [lab.split(" ")[-1] for lab in dmvt.STATE_LABELS]
+    units = [lab.split(" ")[-1] for lab in pl.STATE_LABELS]
     for c, sc in enumerate(("clean", "noisy")):
         for est, r in cmp[sc].items():
-            td, E = decimate(tk, np.abs(Xk - r.xhat), max_points=1500)
+            td, E = decimate(tk, np.abs(Xk - r.x), max_points=1500)
             for i in range(4):
                 axs[i, c].semilogy(td, np.maximum(E[:, i], 1e-9), color=COLORS[est], lw=0.9,
                                    ls="--" if est == "ukf" else "-",
-                                   label=labels.get(est, r.name) if i == 0 else None)
+                                   label=labels.get(est, r.estimator) if i == 0 else None)
         axs[0, c].set_title(f"{sc} measurements")
         axs[3, c].set_xlabel("t [s]")
     for i in range(4):
@@ -772,7 +856,7 @@ def fig_region_sweep(sws: dict, a: float, R: float):
     """Feasibility map of the sweep (cells: max |Im|) and the bisected smallest feasible R
     against a [1/s], with the chosen (a, R); 2 axes."""
     fig, axs = plt.subplots(1, 2, figsize=(11, 4.5))
-    dmvt.plot_sweep(axs[0], sws["sweep"], chosen=(a, R))
+    pl.plot_sweep(axs[0], sws["sweep"], chosen=(a, R))
     axs[0].set_title(r"feasible (blue) / infeasible (orange); cell text: max $|\mathrm{Im}\,\lambda|$ [1/s]")
     axs[1].plot(sws["a_bis"], sws["Rmin"], "o-")
     axs[1].fill_between(sws["a_bis"], sws["Rmin"], max(sws["sweep"]["R"]), alpha=0.15,

@@ -32,3 +32,25 @@ def printed_jacobian_vertices():
             A[3, 2] = xi2
             out.append(A)
     return out
+
+
+def printed_jacobian_entries(X, U, include_third: bool = False) -> np.ndarray:
+    """Literal transcription of Ichalal 2011 eqs. (32)-(33) along states ``X`` (N, 4) and
+    inputs ``U`` (N,), with ``z2 -> x2``, ``z3 -> x3`` (the printed ``z`` are the DMVT points):
+
+        (32)  100 cos x3 x2 sin x3 + 100 cos x3 sin x3 (+ 1/3)
+        (33)  16.35 cos x3 + 100 x2^2 cos^2 x3 - 8.33 u sin x3 - 100 x2^2 sin^2 x3 (+ 1/3)
+
+    The trailing ``+ 1/3`` (garbled in the extraction) is added when ``include_third``.
+    Returns (N, 2). Used only to explain the printed premise bounds: (33) lacks the term
+    ``-(v^2/p) x2 sin x3`` of the exact derivative and (32) does not match ``(v^2/p) cos x3
+    (1 + 2 p x2 sin x3)`` at all (it vanishes at x3 = 0 where the exact value is v^2/p).
+    """
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    U = np.ravel(U)
+    x2, x3 = X[:, 1], X[:, 2]
+    extra = 1.0 / 3.0 if include_third else 0.0
+    xi1 = 100 * np.cos(x3) * x2 * np.sin(x3) + 100 * np.cos(x3) * np.sin(x3) + extra
+    xi2 = (16.35 * np.cos(x3) + 100 * x2**2 * np.cos(x3) ** 2 - 8.33 * U * np.sin(x3)
+           - 100 * x2**2 * np.sin(x3) ** 2 + extra)
+    return np.column_stack([xi1, xi2])

@@ -11,10 +11,10 @@ import time
 
 import numpy as np
 from vehicle_observers.baselines import dmvt_ekf as bb
-from vehicle_observers.baselines.filterpy_generic import run_ekf
 from vehicle_observers.core.timing import best_time
 from vehicle_observers.design.lmi import disk, halfplane
 from vehicle_observers.models import bicycle as b
+from vehicle_observers.models.ts import jacobian_ts_from_samples
 from vehicle_observers.observers import dmvt
 
 from vehicle_observers_papers.ichalal_2011 import constants as ic
@@ -27,7 +27,7 @@ def _setup(T: float):
     z = b.ts_premises(X, U, bp)
     lo, hi = z.min(0), z.max(0)
     ts = b.bicycle_ts(bp, list(zip(lo - 0.05 * (hi - lo), hi + 0.05 * (hi - lo), strict=True)))
-    jts = dmvt.jacobian_ts_from_samples(b.jacobian(X, U, bp))
+    jts = jacobian_ts_from_samples(b.jacobian(X, U, bp))
     return bp, t, ts, jts
 
 
@@ -57,14 +57,12 @@ def run(quick: bool = False) -> list[dict]:
     X, U = b.simulate(bp, tt[:m])
     Y = X @ ic.C.T
     x0 = np.array([0.1, -0.1, 0.1, 0.5])
-    _, sec = bb.run_dmvt_on_data(bp, ts, L, ic.C, Y, U, 1e-3, x0)
-    rows.append({"component": "dmvt observer (6) on sampled data (bicycle_baseline)",
+    obs = dmvt.DMVTObserver(L, ts, bp, ic.C, 1e-3)
+    sec = min(obs.run(tt[:m], U[:, None], Y, x0).seconds for _ in range(3))
+    rows.append({"component": "dmvt observer (6) on sampled data (DMVTObserver.run)",
                  "steps": m, "seconds": sec, "us_per_step": sec / m * 1e6})
-    f, C = bb.bicycle_f(bp), ic.C
-    sec, _ = best_time(lambda: run_ekf(f, lambda x, u: C @ x, Y, U[:, None], 1e-3, x0,
-                                       np.eye(4), 1e-6 * np.eye(4), 1e-4 * np.eye(2),
-                                       jac=bb.rk4_step_and_jacobian(bp),
-                                       hjac=lambda x, u: C), 1)
+    ekf = bb.BicycleEKF(bp, ic.C, 1e-3, 1e-6 * np.eye(4), 1e-4 * np.eye(2), np.eye(4))
+    sec = ekf.run(tt[:m], U[:, None], Y, x0).seconds
     rows.append({"component": "filterpy EKF on the same data (exact RK4 Jacobian)",
                  "steps": m, "seconds": sec, "us_per_step": sec / m * 1e6})
     return rows

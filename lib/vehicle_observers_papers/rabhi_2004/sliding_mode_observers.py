@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from vehicle_observers.baselines import sliding_mode_ekf as pbl
 from vehicle_observers.core.arrays import decimate as _decimate
-from vehicle_observers.core.timing import best_time
 from vehicle_observers.data import road
 from vehicle_observers.models import fullcar
 from vehicle_observers.observers import sliding_mode as smo
@@ -29,6 +27,7 @@ from vehicle_observers.results.rules import Rule
 from vehicle_observers.results.tables import show_table
 
 from vehicle_observers_papers.rabhi_2004 import constants as R
+from vehicle_observers_papers.rabhi_2004 import experiments as EX
 
 PAPER = "Rabhi 2004"
 #: force-observer switching modes compared in Part A (order of the metrics)
@@ -77,7 +76,7 @@ def knob_run(man, Xs, phi_scale: float = 1.0, noise_scale: float = 1.0, seed: in
     rows = []
     for lab, g in ((f"sat, phi x{phi_scale:g}", _scaled_phi(phi_scale)),
                    ("sign", R.force_gains.with_(mode="sign"))):
-        o = R.part_a_run(man, Xs, g, noise=noise, seed=seed)
+        o = EX.part_a_run(man, Xs, g, noise=noise, seed=seed)
         rows.append({"observer": lab, "max RMSE [% of peak]": _pct_max(o),
                      "max chattering [N]": max(o[f"chatter_{n}"] for n in R.FORCE_NAMES)})
     return show_table(rows, title=f"noise x{noise_scale:g}")
@@ -140,7 +139,7 @@ def _pct_max(o: dict) -> float:
 def force_modes(man, Xs, modes=MODES) -> dict:
     """Observer (10) in each switching mode (``R.force_gains``, clean measurements):
     ``{mode: part_a_run dict}`` (Figs. 4-6 analogues use ``'sat'``)."""
-    return {mode: R.part_a_run(man, Xs, R.force_gains.with_(mode=mode)) for mode in modes}
+    return {mode: EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode)) for mode in modes}
 
 
 def force_metrics(A: dict) -> dict:
@@ -175,17 +174,32 @@ def adaptation_study(man, Xs, modes=("sign", "sat"), adapt=ADAPT) -> dict:
     """Observer (10) with the adaptation law (20)-(22) on the F0/sigma entries only
     (``partial``, the default gains), on all 8 entries of theta (``full``, the printed law)
     and without adaptation (``none``), in each switching mode: ``{(mode, label): run}``."""
-    return {(mode, lab): R.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=P))
+    return {(mode, lab): EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=P))
             for mode in modes for lab, P in adapt}
 
 
+#: tolerance of the metrics of the sat-mode run adapting all 8 theta entries: that run
+#: amplifies rounding (1/sigma adapted without persistent excitation), so a change of one
+#: unit in the last place of the measurements moves its max RMSE and chattering by up to
+#: 1.6e-3 relative (measured over 8 perturbed truths); 5e-3 is three times that
+FULL_SAT_RTOL = 5e-3
+FULL_SAT_WHY = ("sat mode with all 8 theta entries adapted amplifies rounding: a one-ulp change "
+                "of the measurements moves the value by up to 1.6e-3 relative (measured on the "
+                "constant-friction run)")
+
+
 def adaptation_metrics(runs: dict, prefix: str = "A_adapt") -> dict:
-    """Max force RMSE [% of peak] and chattering [N] per :func:`adaptation_study` run."""
+    """Max force RMSE [% of peak] and chattering [N] per :func:`adaptation_study` run,
+    ``{name: (value, unit, note)}``; the sat-mode run with full adaptation adds ``(digits,
+    rtol, atol, why)`` (:data:`FULL_SAT_RTOL`: its values depend on rounding beyond their
+    stored precision)."""
     out = {}
     for (mode, lab), o in runs.items():
-        out[f"{prefix}_{mode}_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, adaptation {lab}")
+        tol = (4, FULL_SAT_RTOL, None, FULL_SAT_WHY) if (mode, lab) == ("sat", "full") else ()
+        out[f"{prefix}_{mode}_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak",
+                                                     f"{mode}, adaptation {lab}", *tol)
         out[f"{prefix}_{mode}_{lab}_chatter_max"] = (
-            max(o[f"chatter_{n}"] for n in R.FORCE_NAMES), "N", "step-to-step std")
+            max(o[f"chatter_{n}"] for n in R.FORCE_NAMES), "N", "step-to-step std", *tol)
     return out
 
 
@@ -195,7 +209,7 @@ def flipped_adaptation(man, Xs, mode: str = "sat") -> dict:
     estimate reached; ``{name: (value, unit, note)}``."""
     out = {}
     for lab, sgn in (("stabilising", 1.0), ("flipped", -1.0)):
-        o = R.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=tuple(sgn * np.asarray(R.force_gains.P))))
+        o = EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=tuple(sgn * np.asarray(R.force_gains.P))))
         out[f"ex_adapt_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, {lab} sign")
         out[f"ex_adapt_{lab}_theta_F0_max"] = (float(np.max(np.abs(o["res"].theta[:, 1::2]))), "N/m",
                                               "max |F0/sigma| estimate")
@@ -207,7 +221,7 @@ def mu_step_study(T: float, mu_after: float = 0.5, modes=("sign", "sat"), adapt=
     (:func:`.constants.part_a_truth_mu_step`), the observer model unchanged (nominal
     slip stiffnesses of ``mu = 1``): ``(man, Xs, runs)`` with ``runs`` as
     :func:`adaptation_study`."""
-    man, Xs = R.part_a_truth_mu_step(T, mu_after)
+    man, Xs = EX.part_a_truth_mu_step(T, mu_after)
     return man, Xs, adaptation_study(man, Xs, modes, adapt)
 
 
@@ -230,7 +244,7 @@ def tradeoff_study(man, Xs, seed: int = 0, scales=(0.1, 1, 10, 100)) -> list[dic
     rows = []
     for noise in (None, R.sensor_noise):
         for label, g in cases:
-            o = R.part_a_run(man, Xs, g, noise=noise, seed=seed)
+            o = EX.part_a_run(man, Xs, g, noise=noise, seed=seed)
             rmse = np.array([o[f"rmse_{nm}"] for nm in R.FORCE_NAMES])
             chat = np.array([o[f"chatter_{nm}"] for nm in R.FORCE_NAMES])
             rows.append({"meas": "noisy" if noise else "clean", "mode": label,
@@ -272,8 +286,8 @@ def robustness_study(man, Xs, cases=ROBUST_CASES_A) -> list[dict]:
     ``noadapt`` (4,) force RMSE [% of peak]."""
     rows = []
     for label, key, e in cases:
-        o1 = R.part_a_run(man, Xs, R.force_gains, errors=e)
-        o0 = R.part_a_run(man, Xs, R.force_gains.with_(P=(0.0,) * 8), errors=e)
+        o1 = EX.part_a_run(man, Xs, R.force_gains, errors=e)
+        o0 = EX.part_a_run(man, Xs, R.force_gains.with_(P=(0.0,) * 8), errors=e)
         rows.append({"label": label, "key": key, "errors": e,
                      "adaptive": [o1[f"rmse_pct_{n}"] for n in R.FORCE_NAMES],
                      "noadapt": [o0[f"rmse_pct_{n}"] for n in R.FORCE_NAMES]})
@@ -300,7 +314,7 @@ def robustness_table(rows: list[dict]) -> str:
 
 # ----------------------------------------------------------------- Part A: EKF baseline ---
 def ekf_study(man, Xs, smo_sat: dict, seed: int = 0, dec: int = EKF_DEC) -> dict:
-    """Random-walk-force EKF (:func:`.baselines.sliding_mode_ekf.part_a_ekf_run` on the block means of
+    """Random-walk-force EKF (:func:`.experiments.part_a_ekf_run` on the block means of
     ``dec`` samples, ``R / dec``) against the SMO (sat) on the same truth and measurements.
 
     Returns ``{"E": {clean, noisy}`` (noise rule 1, ``Q_F = F_max^2 / T_RISE``), ``"E2"``
@@ -313,13 +327,13 @@ def ekf_study(man, Xs, smo_sat: dict, seed: int = 0, dec: int = EKF_DEC) -> dict
     kw = dict(decimate=dec, seed=seed, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
     t_rule2 = T_RISE**2 / (dec * dt)   # Q_F = F_max^2 / t_rule2 = (F_max / T_RISE)^2 T_s
     cases = (("clean", None), ("noisy", R.sensor_noise))
-    E = {lab: pbl.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=T_RISE, **kw)
+    E = {lab: EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=T_RISE, **kw)
          for lab, nz in cases}
-    E2 = {lab: pbl.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=t_rule2, **kw)
+    E2 = {lab: EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, noise=nz, t_rise=t_rule2, **kw)
           for lab, nz in cases}
     S = {"clean": smo_sat,
-         "noisy": R.part_a_run(man, Xs, R.force_gains.with_(mode="sat"), noise=R.sensor_noise, seed=seed),
-         "noisy_phi10": R.part_a_run(man, Xs, _scaled_phi(10), noise=R.sensor_noise, seed=seed)}
+         "noisy": EX.part_a_run(man, Xs, R.force_gains.with_(mode="sat"), noise=R.sensor_noise, seed=seed),
+         "noisy_phi10": EX.part_a_run(man, Xs, _scaled_phi(10), noise=R.sensor_noise, seed=seed)}
     return {"E": E, "E2": E2, "S": S, "dec": int(dec), "dt": dt, "q_ratio": T_RISE / t_rule2}
 
 
@@ -337,8 +351,8 @@ def smo_us_per_step(man, smo_run: dict, repeat: int = 3) -> float:
     """Wall time [us] per step of the compiled force observer (sat), best of ``repeat``
     (the loop must already be compiled), on the measurements of ``smo_run``."""
     g = R.force_gains.with_(mode="sat")
-    sec, _ = best_time(lambda: smo.run_force_observer(man.t, smo_run["Y"], man.U, smo_run["model"], g),
-                       repeat=repeat)
+    obs = smo.ForceObserver(smo_run["model"], g, man.t[1] - man.t[0])
+    sec = min(obs.run(man.t, man.U, smo_run["Y"]).seconds for _ in range(repeat))
     return 1e6 * sec / len(man.t)
 
 
@@ -377,7 +391,7 @@ def ekf_metrics(ek: dict) -> dict:
 def ekf_timings(ek: dict, us_smo: float) -> dict:
     """Wall-clock cost of the EKF and the SMO (for ``Report.timing``, never a metric):
     ``{name: (value, unit, note)}``."""
-    us_ekf = ek["E"]["clean"]["us_per_step"]
+    us_ekf = ek["E"]["clean"]["res"].us_per_step
     f_smo, f_ekf = _rates(ek)
     return {"A_ekf_us_per_step": (us_ekf, "us", f"filterpy EKF, 9 states, {_hz(f_ekf)}"),
             "A_smo_us_per_step": (us_smo, "us", f"compiled SMO (sat), {_hz(f_smo)}, best of 3"),
@@ -396,7 +410,7 @@ def ekf_robustness(man, Xs, ek: dict, seed: int = 0, cases=ROBUST_CASES_A,
         if set(e) <= TYRE_PARAMS:
             o = ek["E"]["clean"]
         else:
-            o = pbl.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, errors=e, decimate=dec, seed=seed,
+            o = EX.part_a_ekf_run(man, Xs, R.planar, R.sensor_noise, errors=e, decimate=dec, seed=seed,
                                    t_rise=T_RISE, x2_err0=R.x2_err0, x3_err0=R.x3_err0)
         key = label.replace(" ", "_").replace("%", "pct").replace("+", "p").replace("-", "m")
         rows.append({"label": label, "metric": f"A_ekf_robust_{key}_rmse_pct_max", "value": _pct_max(o),
@@ -469,7 +483,7 @@ def model_metrics(psd: dict, p=R.fullcar) -> dict:
 
 def road_runs(T: float, seed: int = 0, roads=ROADS, modes=("sign", "sat")) -> dict:
     """Road observer on each road and mode (``R.road_gains``): ``{(road, mode): part_b_run}``."""
-    return {(nm, mode): R.part_b_run(nm, T, R.road_gains.with_(mode=mode), seed=seed)
+    return {(nm, mode): EX.part_b_run(nm, T, R.road_gains.with_(mode=mode), seed=seed)
             for nm in roads for mode in modes}
 
 
@@ -496,7 +510,7 @@ PAPER_OUT_CASES = (("paper", None), ("defl", WHEEL_FR))
 def paper_output_runs(T: float, seed: int = 0, roads=("D", "belgian"), cases=PAPER_OUT_CASES) -> dict:
     """Observer on the paper's outputs (29) (``paper``) and with one suspension-deflection
     sensor on the front-right wheel (``defl``): ``{(case, road): part_b_paper_run}``."""
-    return {(c, nm): R.part_b_paper_run(nm, T, deflection_wheel=w, seed=seed)
+    return {(c, nm): EX.part_b_paper_run(nm, T, deflection_wheel=w, seed=seed)
             for c, w in cases for nm in roads}
 
 
@@ -550,7 +564,7 @@ def road_sweep(T: float, seed: int = 0, road_name: str = "D", scales=(1, 10, 100
               for lab, g in [("sign", g0.with_(mode="sign")), ("sat", g0),
                              ("sat_phi2x10", g0.with_(phi2=10 * g0.phi2))]]
     return [{"label": label, "metric": f"B_{road_name}_{key}_U_rmse_pct_mean", "unit": "%", "note": "",
-             "value": R.part_b_run(road_name, T, g, seed=seed, noise_z=nz)["U_rmse_pct_mean"]}
+             "value": EX.part_b_run(road_name, T, g, seed=seed, noise_z=nz)["U_rmse_pct_mean"]}
             for label, key, g, nz in cases]
 
 
@@ -560,7 +574,7 @@ def road_robustness(T: float, seed: int = 0, road_name: str = "D", cases=ROBUST_
     ``note``."""
     return [{"label": label, "metric": f"B_robust_{label.split()[0]}_U_rmse_pct_mean",
              "unit": "% of profile RMS", "note": label,
-             "value": R.part_b_run(road_name, T, R.road_gains, errors=e, seed=seed)["U_rmse_pct_mean"]}
+             "value": EX.part_b_run(road_name, T, R.road_gains, errors=e, seed=seed)["U_rmse_pct_mean"]}
             for label, e in cases]
 
 

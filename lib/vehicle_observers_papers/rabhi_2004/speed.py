@@ -29,7 +29,7 @@ def run(quick: bool = False) -> list[dict]:
     man = planar.paper_manoeuvre(T, dt)
     X0 = planar.free_rolling_state(man.v0, R.planar)
     Xs = planar.simulate(X0, man.U, dt, R.planar)
-    Y = smo.measurements_from_truth(Xs)
+    Y = planar.measurements(Xs)
     model = smo.ForceObserverModel.from_params(R.planar)
     n = len(man.t)
     sec = _time(lambda: planar.simulate(X0, man.U, dt, R.planar))
@@ -37,7 +37,8 @@ def run(quick: bool = False) -> list[dict]:
                  "us_per_step": 1e6 * sec / n, "dt": dt})
     for mode in ("sign", "sat", "lpf"):
         g = R.force_gains.with_(mode=mode)
-        sec = _time(lambda g=g: smo.run_force_observer(man.t, Y, man.U, model, g))
+        obs = smo.ForceObserver(model, g, dt)
+        sec = _time(lambda obs=obs: obs.run(man.t, man.U, Y))
         rows.append({"component": f"force SMO (10), {mode}", "steps": n, "seconds": sec,
                      "us_per_step": 1e6 * sec / n, "dt": dt})
     m = min(n, 2000 if quick else 10000)  # pure Python: a window of the same data
@@ -59,7 +60,8 @@ def run(quick: bool = False) -> list[dict]:
                  "us_per_step": 1e6 * sec / n, "dt": dt})
     for mode in ("sign", "sat"):
         g = R.road_gains.with_(mode=mode)
-        sec = _time(lambda g=g: smo.run_road_observer(t, Yb, p, g))
+        obs = smo.RoadObserver(p, g, dt)
+        sec = _time(lambda obs=obs: obs.run(t, None, Yb))
         rows.append({"component": f"road UIO (30)-(38), {mode}", "steps": n, "seconds": sec,
                      "us_per_step": 1e6 * sec / n, "dt": dt})
     return rows
