@@ -77,7 +77,8 @@ def _design_key(kind: str, vehicle, dt, *modules) -> str:
 def _disk_design(kind, key_args, build, cache: bool):
     """``build() -> design`` through the on-disk cache when ``cache`` (a pickle in
     :func:`kalman_runs.cache_dir`, written atomically; an unreadable or stale entry is
-    rebuilt, an unwritable folder skipped). Returns (design, seconds spent now)."""
+    rebuilt, an unwritable folder skipped; a design holding functions, e.g. the TS model's
+    premises, is not kept). Returns (design, seconds spent now)."""
     import pickle
 
     t0 = time.perf_counter()
@@ -92,9 +93,13 @@ def _disk_design(kind, key_args, build, cache: bool):
         pass
     des = build()
     try:
+        data = pickle.dumps(des, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return des, time.perf_counter() - t0         # holds functions: not kept on disk
+    try:
         f.parent.mkdir(parents=True, exist_ok=True)
         tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(pickle.dumps(des, protocol=pickle.HIGHEST_PROTOCOL))
+        tmp.write_bytes(data)
         os.replace(tmp, f)
     except OSError:
         pass
