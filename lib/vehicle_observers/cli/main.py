@@ -303,8 +303,10 @@ class _Sink:
         try:
             return fn(*a, **kw)
         except OSError as exc:
-            why = ("the disk is full" if exc.errno in (errno.ENOSPC, errno.EDQUOT)
-                   else exc.strerror or str(exc))
+            text = str(exc)
+            full = (exc.errno in (errno.ENOSPC, errno.EDQUOT) or "os error 28" in text
+                    or "No space left" in text or "quota exceeded" in text.lower())
+            why = "the disk is full" if full else exc.strerror or text
             raise CLIError(f"{self.option} {self.path}: cannot write ({why}); nothing "
                            "written") from None
 

@@ -388,8 +388,7 @@ class AtomicOutput:
         data = text.encode("utf-8")
         if self.compress:
             data = gzip.compress(data, compresslevel=GZIP_LEVEL, mtime=0)
-        with open(self.tmp, "wb") as fh:
-            fh.write(data)
+        _write_bytes(self.tmp, data)
         if check is not None:
             check(self.tmp)
         self._finish()
@@ -415,6 +414,12 @@ class AtomicOutput:
                 pass
         self._forget()
         return False
+
+
+def _write_bytes(path, data: bytes):
+    """Write ``data`` to ``path`` (the one place small outputs are written)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
 
 
 def _write_table(path, columns: dict, progress=None, compress: bool = False,

@@ -117,14 +117,21 @@ def symmetric_part(x):
     return (x + x.T) / 2
 
 
+class _MissingVariable(AttributeError, KeyError):
+    """A builder read a variable the design does not define."""
+
+
 class Values(dict):
     """Decision variables by name, also readable as attributes (``V.P`` or ``V["P"]``)."""
 
     def __getattr__(self, name):
         try:
             return self[name]
-        except KeyError as exc:
-            raise AttributeError(name) from exc
+        except KeyError:
+            raise _MissingVariable(name) from None
+
+    def __missing__(self, name):
+        raise _MissingVariable(name)
 
 
 @dataclass
@@ -377,7 +384,7 @@ class LMIDesign:
                                         f"{str(exc).splitlines()[0] if str(exc) else exc!r} "
                                         "(check the shapes of its variables and constants)"
                                         ) from None
-        except KeyError as exc:
+        except _MissingVariable as exc:
             raise ObserverArgumentError(f"{self.name}: constraint {name!r} reads variable "
                                         f"{exc.args[0]!r}, which is not defined") from None
         _check_shape(self.name, name, M, kind)
