@@ -172,10 +172,25 @@ def model_window(log: DriveLog, vehicle: Vehicle, window_s: float = WINDOW_S,
     """The first ``window_s`` seconds of the log's first stretch in motion (the Kalman
     family's stretches, :func:`segments.moving_rows`), thinned to at most :data:`RATE_HZ`;
     ``None`` when that is shorter than :data:`MIN_WINDOW_S`."""
-    ok = segments.moving_rows(log, vehicle)
-    runs, _ = segments.stretches(log.t, ok, max_gap, 50)
-    if not runs:
+    # the rows in motion of a prefix long enough to hold the window (a 10^7-row log is not
+    # scanned whole): from the first row at speed, twice the window, doubled until a stretch
+    # is found that ends before the prefix does, or the log ends
+    N = len(log)
+    fast = np.flatnonzero(log.vx >= segments.V_LOW)
+    if not len(fast):
         return None
+    span = 2.0 * window_s + 10.0
+    while True:
+        end = int(np.searchsorted(log.t, log.t[fast[0]] + span, side="right"))
+        end = min(max(end, fast[0] + 60), N)
+        pre = segments.view(log, 0, end)
+        runs, _ = segments.stretches(pre.t, segments.moving_rows(pre, vehicle), max_gap, 50)
+        if runs and (runs[0][1] < end or log.t[runs[0][1] - 1] - log.t[runs[0][0]] >= window_s
+                     or end == N):
+            break
+        if end == N:
+            return None
+        span *= 2.0
     a, b = runs[0]
     n = int(np.searchsorted(log.t[a:b], log.t[a] + window_s, side="right"))
     sub = segments.view(log, a, a + n)
