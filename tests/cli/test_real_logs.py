@@ -14,7 +14,7 @@ import pytest
 from conftest import KALMAN, emulate, save, speed_profile, take
 from vehicle_observers.cli.main import EXIT_INPUT, CLIError, _check_output, main
 from vehicle_observers.core.metrics import rmse
-from vehicle_observers.data.logs import load_log, partial_path
+from vehicle_observers.data.logs import load_log
 from vehicle_observers.estimation import kalman_runs as RG
 from vehicle_observers.estimation import segments as SG
 from vehicle_observers.models.vehicle import builtin_vehicles
@@ -120,7 +120,7 @@ def test_unit_mistakes_and_absurd_values_refused(capsys, tmp_path, cruise, car, 
     p = save(cruise, tmp_path / "log.csv", edit=edit)
     code, _, err, out = estimate(capsys, p, car["path"])
     one_line_error(code, err, *needles)
-    assert not out.exists() and not partial_path(out).exists()
+    assert sorted(x.name for x in tmp_path.iterdir() if x.name != "cache") == ["log.csv"]
     if "absurd" not in needles:
         assert "--accept-out-of-range" in err
     else:   # absurd values are refused even when out-of-range values are accepted
@@ -336,39 +336,56 @@ def _spawn(log, veh, out, observer="ekf-filterpy"):
                             text=True)
 
 
-def _wait_for(path, proc, timeout=120.0):
+def _partials(out, pid):
+    return list(out.parent.glob(f".{out.name}.{pid}-*.partial"))
+
+
+def _wait_for_partial(out, proc, timeout=120.0):
     t0 = time.time()
-    while not path.exists():
+    while not _partials(out, proc.pid):
         assert proc.poll() is None, proc.communicate()
         assert time.time() - t0 < timeout
         time.sleep(0.05)
+    return _partials(out, proc.pid)[0]
 
 
-def test_sigterm_and_sigkill_leave_no_file_behind(capsys, tmp_path, car):
-    """SIGTERM: the partial file is removed, exit 143, one line. SIGKILL: the partial file is
-    left, and the next run on that output removes it."""
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
+def test_termination_signals_leave_no_file_behind(tmp_path, car, sig):
+    """SIGTERM, SIGINT and SIGHUP: the partial file and its record are removed, one line,
+    exit 128 + signum."""
     log = emulate(T=60.0, profile=lambda t: np.full_like(t, 15.0))
-    p = save(log, tmp_path / "log.csv")
-    out = tmp_path / "est.csv"
+    d = tmp_path / "run"
+    d.mkdir()
+    p = save(log, d / "log.csv")
+    out = d / "est.csv"
     proc = _spawn(p, car["path"], out)           # the pure-Python EKF: ~1 ms/row
-    part = out.with_name(f"{out.name}.partial-{proc.pid}")
-    _wait_for(part, proc)
+    _wait_for_partial(out, proc)
     time.sleep(0.5)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 143, err
-    assert err.strip().splitlines() == ["error: terminated by SIGTERM (no output written)"]
-    assert sorted(x.name for x in tmp_path.iterdir() if x.name != "cache") == ["log.csv"]
+    assert proc.returncode == 128 + sig, err
+    what = "interrupted" if sig == signal.SIGINT else "terminated"
+    name = signal.Signals(sig).name
+    assert err.strip().splitlines() == [f"error: {what} by {name} (no output written)"]
+    assert sorted(x.name for x in d.iterdir()) == ["log.csv"]
+    assert not list((tmp_path / "cache" / "partials").glob("*.json"))
+
+
+def test_sigkill_partial_removed_by_the_next_run(capsys, tmp_path, car):
+    """SIGKILL: the partial file is left, and the next run removes it (it recorded it)."""
+    log = emulate(T=60.0, profile=lambda t: np.full_like(t, 15.0))
+    d = tmp_path / "run"
+    d.mkdir()
+    p = save(log, d / "log.csv")
+    out = d / "est.csv"
     proc = _spawn(p, car["path"], out)
-    part = out.with_name(f"{out.name}.partial-{proc.pid}")
-    _wait_for(part, proc)
+    part = _wait_for_partial(out, proc)
     proc.kill()
     proc.wait(timeout=60)
     assert part.exists() and not out.exists()
     code, _, err, _ = estimate(capsys, p, car["path"], "ekf", out=out)
     assert code == 0, err
-    assert sorted(x.name for x in tmp_path.iterdir() if x.name != "cache") == ["est.csv",
-                                                                              "log.csv"]
+    assert sorted(x.name for x in d.iterdir()) == ["est.csv", "log.csv"]
 
 
 def test_subprocess_error_is_one_line_without_warnings(tmp_path, car):

@@ -1,9 +1,10 @@
 import gzip
+import os
 
 import numpy as np
 import pytest
 from vehicle_observers.core.errors import LogFormatError
-from vehicle_observers.data.logs import REQUIRED, despike, load_log, load_revs, write_csv
+from vehicle_observers.data.logs import REQUIRED, DriveLog, despike, load_log, load_revs, write_csv
 
 GOOD = "t_s,vx_mps,delta_roadwheel_rad,yaw_rate_radps,ay_mps2\n" + "\n".join(
     f"{0.01 * k:.2f},20.0,0.01,0.02,1.0" for k in range(5)) + "\n"
@@ -167,28 +168,96 @@ def test_only_requested_columns_are_kept(tmp_path):
         load_log(p)
 
 
-def test_atomic_output_partial_file_lifecycle(tmp_path):
+def test_atomic_output_partial_file_lifecycle(tmp_path, monkeypatch):
+    """The partial file is hidden, named with a random token, recorded, and removed when the
+    block ends without a commit; a later run removes a killed run's partial file (dead
+    writer, recorded, same inode) but never a user's file, even one named like it."""
+    import json
     import os
 
-    from vehicle_observers.data.logs import ACTIVE_PARTIALS, AtomicOutput, partial_path, remove_stale_partials
+    from vehicle_observers.data.logs import (
+        ACTIVE_PARTIALS,
+        AtomicOutput,
+        partials_registry,
+        remove_stale_partials,
+    )
 
-    out = tmp_path / "est.csv"
-    dead = out.with_name("est.csv.partial-999999999")     # no such process
-    dead.write_text("left by a killed run")
-    alive = out.with_name(f"est.csv.partial-{os.getppid()}")   # a running process
-    alive.write_text("being written")
+    monkeypatch.setenv("VEHICLE_OBSERVERS_CACHE", str(tmp_path / "cache"))
+    d = tmp_path / "out"
+    d.mkdir()
+    out = d / "est.csv"
+    users = [d / "est.csv.partial-999999999", d / f".est.csv.999999999-{'0' * 16}.partial"]
+    for f in users:
+        f.write_text("a user's own file")
     with AtomicOutput(out) as sink:
-        assert not dead.exists() and alive.exists()
-        assert partial_path(out).exists() and partial_path(out) in ACTIVE_PARTIALS
-    assert not partial_path(out).exists() and not out.exists()   # no commit: removed
+        tmp = sink.tmp
+        assert tmp.name.startswith(".est.csv.") and tmp.name.endswith(".partial")
+        assert tmp.exists() and tmp in ACTIVE_PARTIALS
+        rec = json.loads(ACTIVE_PARTIALS[tmp].read_text())
+        assert rec["pid"] == os.getpid() and rec["ino"] == tmp.stat().st_ino
+    assert not tmp.exists() and not out.exists() and not ACTIVE_PARTIALS   # no commit: removed
+    assert not list(partials_registry().glob("*.json"))
     with pytest.raises(RuntimeError):
         with AtomicOutput(out):
             raise RuntimeError("failure while computing")
-    assert not partial_path(out).exists() and not ACTIVE_PARTIALS
+    assert not ACTIVE_PARTIALS and sorted(x.name for x in d.iterdir()) == sorted(
+        u.name for u in users)
+    # a killed run: its record names a dead pid
+    sink = AtomicOutput(out).__enter__()
+    m = ACTIVE_PARTIALS.pop(sink.tmp)
+    m.write_text(json.dumps({**json.loads(m.read_text()), "pid": 999999999}))
+    # a record pointing at a user's file (another inode) is not honoured
+    fake = partials_registry() / f"{'1' * 16}.json"
+    fake.write_text(json.dumps({**json.loads(m.read_text()), "partial": str(users[1])}))
+    assert remove_stale_partials() == [sink.tmp]
+    assert all(u.read_text() == "a user's own file" for u in users)
     with AtomicOutput(out) as sink:
         sink.commit({"a": np.arange(3.0)})
-    assert out.read_text() == "a\n0.0\n1.0\n2.0\n" and remove_stale_partials(out) == []
-    del sink
+    assert out.read_text() == "a\n0.0\n1.0\n2.0\n" and remove_stale_partials() == []
+    assert sorted(x.name for x in d.iterdir()) == sorted([out.name] + [u.name for u in users])
+
+
+def test_gz_output_is_gzip_and_reads_back(tmp_path):
+    import gzip as gz
+
+    p, cols = _long_log(tmp_path, 500)
+    out = tmp_path / "copy.csv.gz"
+    write_csv(out, cols)
+    assert out.read_bytes()[:2] == b"\x1f\x8b"
+    assert gz.decompress(out.read_bytes()).decode().startswith("t_s,vx_mps,")
+    back = load_log(out)
+    assert back.t.tobytes() == cols["t_s"].tobytes()
+    upper = tmp_path / "COPY.CSV.GZ"
+    write_csv(upper, cols)
+    assert upper.read_bytes()[:2] == b"\x1f\x8b"
+
+
+def test_drive_log_refuses_nan_and_bad_shapes_naming_row_and_column():
+    t = np.arange(5) * 0.1
+    ok = dict(t=t, vx=np.full(5, 10.0), delta=np.zeros(5), yaw_rate=np.zeros(5))
+    DriveLog(**ok)
+    with pytest.raises(LogFormatError, match="column 'vx_mps' has 1 NaN/inf value\\(s\\), first at row 3"):
+        DriveLog(**{**ok, "vx": np.array([10, 10, 10, np.nan, 10.0])})
+    with pytest.raises(LogFormatError, match="column 'ay_mps2' has 2 NaN/inf"):
+        DriveLog(**ok, ay=np.array([0, np.inf, 0, 0, -np.inf]))
+    with pytest.raises(LogFormatError, match="column 'delta_roadwheel_rad' has 4 rows, 't_s' has 5"):
+        DriveLog(**{**ok, "delta": np.zeros(4)})
+    with pytest.raises(LogFormatError, match="'yaw_rate_radps' must be a 1-D numeric array"):
+        DriveLog(**{**ok, "yaw_rate": np.zeros((5, 2))})
+    with pytest.raises(LogFormatError, match="extra column 'x' has shape"):
+        DriveLog(**ok, extra={"x": np.zeros(3)})
+    DriveLog(**ok, extra={"truth": np.full(5, np.nan)})      # extra truth may hold NaN
+
+
+def test_special_files_are_refused_not_read(tmp_path):
+    fifo = tmp_path / "log.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(LogFormatError, match="is a FIFO"):
+        load_log(fifo)                  # no writer: reading would block forever
+    with pytest.raises(LogFormatError, match="is a character device"):
+        load_log("/dev/zero")           # never ends
+    with pytest.raises(LogFormatError, match="is a directory"):
+        load_log(tmp_path)
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -40,3 +40,18 @@ def test_linear_tyres_and_defaults(tmp_path):
     p.write_text(p.read_text().replace("a_r = 1.3", "a_r = true"))
     with pytest.raises(VehicleFileError, match=r"lin.toml: key 'a_r' must be a finite number"):
         load_vehicle(p)
+
+
+def test_special_and_oversized_vehicle_files_refused(tmp_path):
+    import os
+
+    fifo = tmp_path / "car.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(VehicleFileError, match="is a FIFO"):
+        load_vehicle(fifo)                 # no writer: reading would block forever
+    with pytest.raises(VehicleFileError, match="is a directory"):
+        load_vehicle(tmp_path)
+    big = tmp_path / "big.toml"
+    big.write_bytes(b"#" * (2 << 20))
+    with pytest.raises(VehicleFileError, match="not a vehicle file"):
+        load_vehicle(big)

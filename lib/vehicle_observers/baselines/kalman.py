@@ -121,7 +121,9 @@ class KalmanRun(Trajectory):
         return self.x[:, X_R]
 
 
-def _run(name, t, X, P, Ff, Fr, nll, seconds, causal, info) -> KalmanRun:
+def kalman_run(name, t, X, P, Ff, Fr, nll, seconds, causal, info) -> KalmanRun:
+    """The :class:`KalmanRun` of a filter or smoother: ``X`` (N, 3), ``P`` (N, 3, 3) or None,
+    forces ``Ff``/``Fr`` (N,) [N], ``nll``, wall ``seconds``, ``causal``, ``info``."""
     return KalmanRun(t, X, STATE_NAMES, seconds=seconds, causal=causal, estimator=name,
                      info=info, P=P, Ff=Ff, Fr=Fr, nll=float(nll))
 
@@ -683,7 +685,7 @@ class LateralEKF(_KalmanObserver):
         info = {"use_ay": inp.use_ay, "tuning": d.tuning}
         if store:
             info.update(Xp=Xp, Pp=Pp, Fs=Fs)
-        return _run("EKF", inp.t, Xf, P, Ff, Fr, nll, sec, True, info)
+        return kalman_run("EKF", inp.t, Xf, P, Ff, Fr, nll, sec, True, info)
 
 
 def ekf(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
@@ -706,7 +708,7 @@ def rts(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None
     sec = time.perf_counter() - t0
     inp = prepare(log, use_ay)
     Ff, Fr = _forces(Xs, inp, params)
-    return _run("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False,
+    return kalman_run("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False,
                 {"use_ay": inp.use_ay, "tuning": f.info["tuning"]})
 
 
@@ -982,7 +984,7 @@ def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
             kf.x = xn
     sec = time.perf_counter() - t0
     Ff, Fr = _forces(X, inp, params)
-    return _run("EKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
+    return kalman_run("EKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
                 {"use_ay": inp.use_ay, "tuning": tuning})
 
 
@@ -1109,7 +1111,7 @@ class LateralUKF(_KalmanObserver):
             P[k] = kf.P
         sec = time.perf_counter() - t0
         Ff, Fr = _forces(X, inp, d.params)
-        return _run("UKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
+        return kalman_run("UKF (filterpy)", inp.t, X, P, Ff, Fr, float("nan"), sec, True,
                     {"use_ay": inp.use_ay, "tuning": d.tuning, "spd_repairs": repairs})
 
 

@@ -3,30 +3,44 @@
     python -m vehicle_observers [--plugin MODULE ...] observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
         --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
-        [--progress/--no-progress]
+        [--accept-mismatch] [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
     python -m vehicle_observers identify LOG.csv --out VEHICLE.toml --mass M --inertia IZ \\
-        --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no]
+        --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no] [--window 120]
 
 ``tune`` prints the ML noise tuning of the Kalman observers as a ``[kalman]`` TOML table:
-append it to the vehicle file to skip the tuning in later runs.
+append it to the vehicle file to skip the tuning in later runs (a log without ``ay_mps2``
+is refused: the a_y noise and bias drift cannot be identified from it).
 
 ``LOG.csv`` follows the schema of :mod:`vehicle_observers.data.logs` (``t_s, vx_mps,
-delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...).
+delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...);
+it must be a regular file (a FIFO or device is refused: it could block forever).
 ``--vehicle`` is a TOML file (:mod:`vehicle_observers.models.vehicle`) or a built-in name
 (``yacine2015``, ``revs250lm``). The output CSV has ``t_s`` and one column per estimate with
 its unit in the name, plus ``low_speed`` (1 where the kinematic low-speed model replaced the
 observer: standstill, v_x < 2 m/s) and ``reinit`` (1 on the first row after a time gap longer
 than ``--max-gap``; the observer restarts there), see :mod:`vehicle_observers.estimation.segments`.
-The output is written to ``EST.csv.partial-<pid>`` next to it and renamed when complete (the
-partial file is created first, so an unwritable folder fails at once; it is removed on
-errors and SIGTERM, and by the next run if a SIGKILL left it). ``--out`` equal to the log is
-refused. The log is checked for plausible units before computing
-(:func:`vehicle_observers.data.logs.check_plausible`; ``--accept-out-of-range`` accepts a
-log that really is out of range) and an output with NaN/inf, or ``|v_y|`` above 30 m/s, is an
-error, not a result. When the log has reference columns the benchmark metrics are printed.
-Errors: one line on stderr, exit status 2 (bad input), 3 (unexpected internal error), 143
-(SIGTERM); never a traceback, never a warning line.
+
+Outputs (``estimate --out``, ``identify --out``) are checked before any computing
+(:func:`vehicle_observers.data.logs.check_output`): an output that is an input of the same
+command (log, vehicle file, plug-in; whatever the spelling: symlink, hard link, relative
+path), a folder or special file, in a missing folder, or whose suffix is not written
+(``.csv`` / ``.csv.gz`` for estimates, gzip-compressed for ``.gz``; ``.toml`` for vehicle
+files) is refused. The output is written to a hidden partial file next to it and renamed
+when complete (:class:`~vehicle_observers.data.logs.AtomicOutput`: created first, so an
+unwritable folder fails at once; removed on errors and on SIGTERM, SIGINT and SIGHUP, and by
+a later run if a SIGKILL left it; a user's file is never removed). The log is checked for
+plausible units before computing (:func:`vehicle_observers.data.logs.check_plausible`,
+including a change of unit inside the log; ``--accept-out-of-range`` accepts a log that
+really is out of range), the options against the log (``--max-gap`` at least
+:data:`MIN_GAP_PERIODS` sample periods), and the vehicle file against the log
+(:mod:`vehicle_observers.estimation.consistency`: refused when it cannot be this car unless
+``--accept-mismatch``, one warning line when doubtful). An output with NaN/inf, or ``|v_y|``
+above 30 m/s, is an error, not a result. When the log has reference columns the benchmark
+metrics are printed.
+Errors: one line on stderr, exit status 2 (bad input, including bad options), 3
+(unexpected internal error), 128 + signal number (SIGHUP 129, SIGINT 130, SIGTERM 143);
+never a traceback. Warnings: at most one line on stderr, after a successful run.
 
 Estimators come from :mod:`vehicle_observers.estimation.registry`: the built-in ones, the
 plug-ins installed under the entry-point group ``vehicle_observers.estimators``, the modules
@@ -38,6 +52,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import os
 import signal
 import sys
@@ -50,10 +65,30 @@ EXIT_INPUT = 2
 EXIT_INTERNAL = 3
 #: stdout closed by its reader (as if ended by SIGPIPE)
 EXIT_PIPE = 141
+#: signals that end a run like SIGTERM: partial output removed, one line, exit 128 + signum
+SIGNALS = ("SIGTERM", "SIGINT", "SIGHUP")
+#: ``--max-gap`` must cover at least this many median sample periods of the log (a shorter
+#: one restarts the observer on every row)
+MIN_GAP_PERIODS = 3.0
+#: suffixes of the files each command writes (the format follows the suffix)
+ESTIMATE_SUFFIXES = (".csv", ".csv.gz")
+VEHICLE_SUFFIXES = (".toml",)
 
 
 class CLIError(Exception):
     """A user-facing error (one line)."""
+
+
+class _UsageError(Exception):
+    """A command-line usage error from argparse (one line)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (the stock parser prints the usage block, up to 8
+    lines, before the message)."""
+
+    def error(self, message):
+        raise _UsageError(f"{self.prog}: {message} (see --help)")
 
 
 def _add_common(p):
@@ -66,15 +101,18 @@ def _add_common(p):
                         "(default 120)")
     p.add_argument("--max-gap", type=float, default=0.5,
                    help="a time step longer than this [s] re-initialises the observer "
-                        "(default 0.5)")
+                        f"(default 0.5; at least {MIN_GAP_PERIODS:g} sample periods of the log)")
     p.add_argument("--accept-out-of-range", action="store_true",
                    help="accept a log whose values are outside the plausible ranges of a road "
                         "vehicle in SI units (otherwise refused naming the likely unit mistake)")
+    p.add_argument("--accept-mismatch", action="store_true",
+                   help="go on when the vehicle file cannot be the log's car (tyres, axle "
+                        "distances or speed box contradict the log; otherwise refused)")
 
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m vehicle_observers",
-                                description="Vehicle lateral-state observers on drive logs.")
+    p = _Parser(prog="python -m vehicle_observers",
+                description="Vehicle lateral-state observers on drive logs.")
     p.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                    help="import MODULE (dotted name, or a .py file) before listing or running: "
                         "its estimators are registered (repeatable)")
@@ -83,7 +121,8 @@ def _parser():
     e = sub.add_parser("estimate", help="run one observer on a log and write the estimates")
     _add_common(e)
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
-    e.add_argument("--out", required=True, help="output CSV path")
+    e.add_argument("--out", required=True,
+                   help="output CSV path (.csv, or .csv.gz written gzip-compressed)")
     tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
                                      "a [kalman] table for the vehicle file")
     _add_common(tu)
@@ -97,9 +136,14 @@ def _parser():
 
 def _plugins(args) -> list[str]:
     """``--plugin`` values as module names: a ``.py`` path puts its folder on ``sys.path``."""
+    from vehicle_observers.data.logs import special_file
+
     mods = []
     for m in getattr(args, "plugin", None) or []:
         if m.endswith(".py"):
+            kind = special_file(m)
+            if kind is not None:
+                raise CLIError(f"--plugin {m}: is {kind}, expected a .py file")
             f = Path(m).resolve()
             if not f.is_file():
                 raise CLIError(f"--plugin {m}: no such file")
@@ -159,6 +203,17 @@ def _check_args(args):
         raise CLIError(f"--max-gap must be a number of seconds > 0, got {args.max_gap}")
 
 
+def _check_options_against_log(args, log):
+    """Options that would defeat the estimator on this log are refused (one line)."""
+    if len(log) < 2:
+        return
+    dt = float(np.median(np.diff(log.t)))
+    if args.max_gap < MIN_GAP_PERIODS * dt:
+        raise CLIError(f"--max-gap {args.max_gap:g} s is shorter than {MIN_GAP_PERIODS:g} sample "
+                       f"periods of the log (median step {dt:.4g} s): the observer would restart "
+                       f"on every row; use at least {MIN_GAP_PERIODS * dt:.3g} s (default 0.5)")
+
+
 def _load(args, vehicle, columns=None, progress=None):
     """The log, validated: schema, plausible units (unless --accept-out-of-range)."""
     from vehicle_observers.data.logs import check_plausible, load_log
@@ -166,6 +221,21 @@ def _load(args, vehicle, columns=None, progress=None):
     log = load_log(args.log, min_vx=None, columns=columns, progress=progress)
     check_plausible(log, vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
     return log
+
+
+def _check_vehicle(args, log, vehicle, spec=None) -> str | None:
+    """:func:`consistency.check_vehicle_log`: raises CLIError when the vehicle file cannot be
+    the log's car (unless --accept-mismatch); returns the warning line when doubtful."""
+    from vehicle_observers.estimation.consistency import check_vehicle_log
+
+    box = spec is not None and {"uncertainty.vx_min", "uncertainty.vx_max"} <= set(
+        spec.vehicle_keys)
+    res = check_vehicle_log(log, vehicle, box=box, max_gap=args.max_gap)
+    if res.problems and not args.accept_mismatch:
+        raise CLIError(f"{res.message()} (--accept-mismatch to go on)")
+    if res.problems or res.doubts:
+        return f"warning: {res.message()}"
+    return None
 
 
 def _check_output(name, table: dict, accept: bool):
@@ -184,22 +254,65 @@ def _check_output(name, table: dict, accept: bool):
                            f"(|value| > {lim:g} is implausible); nothing written")
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return a.resolve() == b.resolve()
+def _vehicle_path(spec: str) -> str | None:
+    """The file a ``--vehicle`` value reads (a path, or the built-in file of that name)."""
+    from vehicle_observers.models.vehicle import builtin_vehicles
+
+    if Path(spec).exists():
+        return spec
+    b = builtin_vehicles().get(str(spec))
+    return None if b is None else str(b)
 
 
-def _out_path(args) -> Path:
-    out_path = Path(args.out)
-    if out_path.is_dir():
-        raise CLIError(f"--out {args.out}: is a directory, expected a file path")
-    if not out_path.parent.exists() and str(out_path.parent) not in ("", "."):
-        raise CLIError(f"--out {args.out}: folder {out_path.parent} does not exist")
-    if Path(args.log).exists() and _same_file(Path(args.log), out_path):
-        raise CLIError(f"--out {args.out}: is the input log; choose another file")
-    return out_path
+def _inputs(args) -> dict:
+    """Every input file of the command, described for the refusal of an output onto it."""
+    out = {"the input log": args.log}
+    if getattr(args, "vehicle", None):
+        out["the vehicle file"] = _vehicle_path(args.vehicle)
+    for m in getattr(args, "plugin", None) or []:
+        if m.endswith(".py"):
+            out[f"the plug-in {m}"] = m
+    return out
+
+
+def _out_path(args, suffixes=ESTIMATE_SUFFIXES) -> Path:
+    from vehicle_observers.data.logs import check_output
+
+    return check_output(args.out, _inputs(args), suffixes, "--out")
+
+
+class _Sink:
+    """The output of a command: :class:`AtomicOutput` with one-line errors (an unwritable
+    folder at once; a full disk or any write error when committing: nothing is left)."""
+
+    def __init__(self, path: Path, option="--out"):
+        from vehicle_observers.data.logs import AtomicOutput
+
+        self.path, self.option = path, option
+        self.out = AtomicOutput(path)
+
+    def __enter__(self):
+        try:
+            self.out.__enter__()
+        except OSError as exc:
+            raise CLIError(f"{self.option} {self.path}: cannot write there "
+                           f"({exc.strerror or exc})") from None
+        return self
+
+    def commit(self, fn, *a, **kw):
+        try:
+            return fn(*a, **kw)
+        except OSError as exc:
+            text = str(exc)
+            full = (exc.errno in (errno.ENOSPC, errno.EDQUOT) or "os error 28" in text
+                    or "No space left" in text or "quota exceeded" in text.lower())
+            why = "the disk is full" if full else exc.strerror or text
+            raise CLIError(f"{self.option} {self.path}: cannot write ({why}); nothing "
+                           "written") from None
+
+    def __exit__(self, *exc):
+        self.out.__exit__(*exc)
+        return False
 
 
 class _Bar:
@@ -227,9 +340,14 @@ class _Bar:
             self.stage(40 + 45 * k / max(N, 1), f"row {k}/{N}")
 
 
+def _warn(line):
+    if line:
+        print(line, file=sys.stderr)
+
+
 def cmd_estimate(args, out=None):
     out = out or sys.stdout
-    from vehicle_observers.data.logs import OPTIONAL, REQUIRED, AtomicOutput
+    from vehicle_observers.data.logs import OPTIONAL, REQUIRED
     from vehicle_observers.estimation import score
     from vehicle_observers.models.vehicle import load_vehicle
 
@@ -243,30 +361,25 @@ def cmd_estimate(args, out=None):
     bar = _Bar(show, args.observer)
     try:
         vehicle = load_vehicle(args.vehicle)
-        try:
-            sink = AtomicOutput(out_path).__enter__()
-        except OSError as exc:
-            raise CLIError(f"--out {args.out}: cannot write there "
-                           f"({exc.strerror or exc})") from None
-        try:
+        with _Sink(out_path) as sink:
             # every schema column is read and checked (an absurd value in any channel is
             # refused), plus the emulated logs' yaw-rate truth used for scoring
             cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
             log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
+            _check_options_against_log(args, log)
+            spec.check(log, vehicle)
+            warning = _check_vehicle(args, log, vehicle, spec)
             bar.stage(10, "design / tuning")
             est = spec.estimate(log, vehicle, window_s=args.tune_window,
                                 progress=bar.observer, max_gap=args.max_gap, cache=True)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
             bar.stage(85, "writing")
-            sink.commit(table, bar.part(85, 100, "writing, rows"))
-        except OSError as exc:
-            raise CLIError(f"--out {args.out}: cannot write ({exc.strerror or exc})") from None
-        finally:
-            sink.__exit__(None, None, None)
+            sink.commit(sink.out.commit, table, bar.part(85, 100, "writing, rows"))
         bar.stage(100, "done")
     finally:
         bar.bar.close()
+    _warn(warning)
     _report(args, spec, est, log, vehicle, out_path, score(est, log), out)
     return 0
 
@@ -291,6 +404,10 @@ def _report(args, spec, est, log, vehicle, out_path, m, out):
             print(line, file=out)
 
 
+#: what the ML tuning reads from the a_y channel (named when a log has none)
+_AY_PARAMS = "R_ay (the a_y noise) and q_b (the drift of the a_y bias)"
+
+
 def cmd_tune(args, out=None):
     out = out or sys.stdout
     from vehicle_observers.estimation.kalman_runs import kalman_tuning
@@ -299,8 +416,16 @@ def cmd_tune(args, out=None):
     _check_args(args)
     vehicle = load_vehicle(args.vehicle)
     log = _load(args, vehicle, ("ay_mps2",))
+    _check_options_against_log(args, log)
+    if log.ay is None:
+        raise CLIError(f"{Path(args.log).name}: no 'ay_mps2' column: tune cannot identify "
+                       f"{_AY_PARAMS} from the yaw rate alone, and a [kalman] table with "
+                       "defaults for them would look fitted; nothing printed (estimate tunes "
+                       "q_vy, q_r, R_r on such a log at run time)")
+    warning = _check_vehicle(args, log, vehicle)
     tun, _ = kalman_tuning(log, dataclasses.replace(vehicle, kalman=None),
                            window_s=args.tune_window, max_gap=args.max_gap, cache=True)
+    _warn(warning)
     print(f"# {tun.source}", file=out)
     print("[kalman]", file=out)
     for k in ("q_vy", "q_r", "q_b", "R_r", "R_ay"):
@@ -308,18 +433,16 @@ def cmd_tune(args, out=None):
     return 0
 
 
-def _on_sigterm(signum, frame):
-    """SIGTERM: remove the partial output, one line, exit 143 at once (no exception is
-    raised: it could surface inside a pyarrow or numba call)."""
-    from vehicle_observers.data.logs import ACTIVE_PARTIALS
+def _on_signal(signum, frame):
+    """SIGTERM, SIGINT, SIGHUP: remove the partial output, one line, exit 128 + signum at
+    once (no exception is raised: it could surface inside a pyarrow or numba call)."""
+    from vehicle_observers.data.logs import discard_active_partials
 
-    for p in list(ACTIVE_PARTIALS):
-        try:
-            p.unlink()
-        except OSError:
-            pass
-    os.write(2, b"error: terminated by SIGTERM (no output written)\n")
-    os._exit(143)
+    discard_active_partials()
+    name = signal.Signals(signum).name
+    what = "interrupted" if signum == signal.SIGINT else "terminated"
+    os.write(2, f"error: {what} by {name} (no output written)\n".encode())
+    os._exit(128 + signum)
 
 
 #: errors caused by the input (exit status 2)
@@ -353,7 +476,7 @@ def _identify_parser(sub):
     i = sub.add_parser("identify", help="cornering stiffness per axle (and friction past 0.5 g) "
                                         "from a log's measured channels; writes a vehicle TOML")
     i.add_argument("log")
-    i.add_argument("--out", required=True, help="vehicle TOML to write")
+    i.add_argument("--out", required=True, help="vehicle TOML to write (.toml)")
     for flag, what in (("--mass", "m [kg]"), ("--inertia", "I_z [kg m^2]"),
                        ("--a-f", "CG to front axle [m]"), ("--a-r", "CG to rear axle [m]")):
         i.add_argument(flag, type=float, required=True, help=what)
@@ -362,53 +485,130 @@ def _identify_parser(sub):
                    help="measured channels to fit: yaw_rate and/or ay (default both)")
     i.add_argument("--nonlinear", choices=("auto", "yes", "no"), default="auto",
                    help="fit the friction peak mu: auto = only if max|a_y| >= 0.5 g")
+    i.add_argument("--window", type=float, default=IDENTIFY_WINDOW_S,
+                   help="seconds of the log's first stretch in motion (v_x > 1 m/s, no gap) the "
+                        f"model is fitted on (default {IDENTIFY_WINDOW_S:g})")
+    i.add_argument("--accept-out-of-range", action="store_true",
+                   help="accept a log whose values are outside the plausible ranges of a road "
+                        "vehicle in SI units (otherwise refused naming the likely unit mistake)")
+
+
+#: default ``identify --window`` [s]: the open-loop fit follows a real car for minutes, not
+#: for a whole session (on the Revs log: 20 % of the yaw rate unexplained over the first
+#: 120 s, more than its spread over the 550 s), and 120 s at 100 Hz fit in about a second
+IDENTIFY_WINDOW_S = 120.0
+#: speed above which ``identify`` fits (the model divides by v_x) [m/s]
+IDENTIFY_MIN_VX = 1.0
+
+
+def _identify_window(args, log):
+    """The first ``--window`` seconds of the log's first stretch with ``v_x > 1 m/s`` and no
+    time gap above 0.5 s (at least 50 rows)."""
+    from vehicle_observers.estimation import segments
+
+    if not (np.isfinite(args.window) and args.window > 0):
+        raise CLIError(f"--window must be a number of seconds > 0, got {args.window}")
+    runs, _ = segments.stretches(log.t, log.vx > IDENTIFY_MIN_VX, segments.MAX_GAP_S, 50)
+    if not runs:
+        raise CLIError(f"{Path(args.log).name}: no stretch of 50 rows with v_x > "
+                       f"{IDENTIFY_MIN_VX:g} m/s and no time gap > {segments.MAX_GAP_S:g} s to "
+                       "fit the model on")
+    a, b = runs[0]
+    n = int(np.searchsorted(log.t[a:b], log.t[a] + args.window, side="right"))
+    if n < 50:
+        raise CLIError(f"--window {args.window:g} s holds {n} row(s) of the first stretch in "
+                       f"motion (t = {log.t[a]:g} s); the fit needs at least 50")
+    return segments.view(log, a, a + n)
+
+
+def _identify_cached(log, geometry, channels, nonlinear):
+    """:func:`identify_stiffness` through an on-disk cache (like the Kalman tuning's, in
+    :func:`vehicle_observers.data.logs.cache_dir`): key = the window's measured channels,
+    the geometry and options, and the source of the identification and model modules."""
+    import hashlib
+    import pickle
+
+    from vehicle_observers.data import identification as idf
+    from vehicle_observers.data.logs import cache_dir
+    from vehicle_observers.models import lateral, tires
+
+    h = hashlib.sha256()
+    for a in (log.t - log.t[0], log.vx, log.delta, log.yaw_rate, log.ay):
+        h.update(b"-" if a is None else np.ascontiguousarray(a, float).tobytes())
+    h.update(repr((tuple(float(g) for g in geometry), tuple(channels), nonlinear)).encode())
+    for m in (idf, lateral, tires):
+        h.update(Path(m.__file__).read_bytes())
+    f = cache_dir() / f"identify-{h.hexdigest()}.pkl"
+    try:
+        return pickle.loads(f.read_bytes())
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError,
+            ValueError):
+        pass
+    fit = idf.identify_stiffness(log, *geometry, channels=channels, nonlinear=nonlinear)
+    try:
+        f.parent.mkdir(parents=True, exist_ok=True)
+        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(pickle.dumps(fit, protocol=pickle.HIGHEST_PROTOCOL))
+        os.replace(tmp, f)
+    except (OSError, pickle.PicklingError, AttributeError, TypeError):
+        pass
+    return fit
+
+
+#: the vehicle-file keys the geometry options of ``identify`` become
+_GEOMETRY = (("--mass", "mass", "m"), ("--inertia", "inertia", "I_z"), ("--a-f", "a_f", "a_f"),
+             ("--a-r", "a_r", "a_r"))
 
 
 def cmd_identify(args, out=None):
     """``identify``: :func:`vehicle_observers.data.identification.identify_stiffness` on the
     measured steering, speed, yaw rate and lateral acceleration (never the reference v_y);
     prints the estimates with 95 % intervals; writes ``--out`` only when every parameter is
-    identifiable (else exit 2 naming the combination that is)."""
+    identifiable (else exit 2 naming the combination that is). The fit uses the first
+    ``--window`` seconds of the first stretch in motion. The log is checked like
+    ``estimate``'s (schema, plausible units against the wheelbase ``a_f + a_r``, a change of
+    unit inside it) and ``--out`` like ``estimate``'s (never an input, a ``.toml`` name)."""
     out = out or sys.stdout
-    import os
-    import tempfile
-
-    from vehicle_observers.core.errors import LogFormatError
     from vehicle_observers.data import identification as idf
-    from vehicle_observers.data.logs import load_log
-    from vehicle_observers.models.vehicle import VehicleFileError, load_vehicle
+    from vehicle_observers.data.logs import check_plausible, load_log
+    from vehicle_observers.models.vehicle import RANGES, VehicleFileError, load_vehicle
 
+    for flag, attr, key in _GEOMETRY:
+        v = getattr(args, attr)
+        lo, hi = RANGES[key]
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise CLIError(f"{flag} {v:g} is outside the plausible range [{lo:g}, {hi:g}] of a "
+                           f"road vehicle's {key} (SI units)")
     chans = tuple(c.strip() for c in args.channels.split(",") if c.strip())
-    try:
-        log = load_log(args.log, min_vx=1.0)
-        fit = idf.identify_stiffness(log, args.mass, args.inertia, args.a_f, args.a_r,
-                                     channels=chans,
-                                     nonlinear={"auto": "auto", "yes": True, "no": False}[
-                                         args.nonlinear])
-    except (LogFormatError, ValueError) as exc:
-        raise CLIError(str(exc).splitlines()[0]) from None
-    for n, v, lo, hi in zip(fit.names, fit.value, fit.ci_lo, fit.ci_hi):
-        print(f"{n} = {v:.6g}  95% CI [{lo:.6g}, {hi:.6g}]", file=out)
-    print("noise std (from the data): " + ", ".join(f"{c} {v:.3g}" for c, v in
-                                                    fit.noise_std.items()), file=out)
-    if not fit.identifiable:
-        raise CLIError(fit.message)
-    name = args.name or Path(args.log).name
-    text = idf.vehicle_toml(fit, name, (float(log.vx.min()), float(log.vx.max())),
-                            source=Path(args.log).name)
-    dst = Path(args.out)
-    fd, tmp = tempfile.mkstemp(dir=dst.parent if str(dst.parent) else ".", suffix=".toml")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        load_vehicle(tmp)                      # the other commands must accept it
-        os.replace(tmp, dst)
-    except VehicleFileError as exc:
-        raise CLIError(f"identified values do not make a valid vehicle file: {exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    print(f"{fit.message}\nwrote {dst}", file=out)
+    out_path = _out_path(args, VEHICLE_SUFFIXES)
+    with _Sink(out_path) as sink:
+        full = load_log(args.log, min_vx=None)
+        check_plausible(full, args.a_f + args.a_r, args.accept_out_of_range)
+        log = _identify_window(args, full)
+        print(f"fitted on t = {log.t[0]:.6g}..{log.t[-1]:.6g} s ({len(log)} rows: the first "
+              f"{args.window:g} s in motion)", file=out)
+        fit = _identify_cached(log, (args.mass, args.inertia, args.a_f, args.a_r), chans,
+                               {"auto": "auto", "yes": True, "no": False}[args.nonlinear])
+        for n, v, lo, hi in zip(fit.names, fit.value, fit.ci_lo, fit.ci_hi):
+            print(f"{n} = {v:.6g}  95% CI [{lo:.6g}, {hi:.6g}]", file=out)
+        print("noise std (from the data): " + ", ".join(f"{c} {v:.3g}" for c, v in
+                                                        fit.noise_std.items()), file=out)
+        if not fit.identifiable:
+            raise CLIError(fit.message)
+        name = args.name or Path(args.log).name
+        text = idf.vehicle_toml(fit, name, (float(log.vx.min()), float(log.vx.max())),
+                                source=Path(args.log).name)
+
+        def accepted(tmp):            # the other commands must accept it
+            try:
+                load_vehicle(tmp)
+            except VehicleFileError as exc:
+                msg = str(exc).replace(Path(tmp).name, out_path.name)
+                raise CLIError(f"identified values do not make a valid vehicle file: "
+                               f"{msg}") from None
+
+        sink.commit(sink.out.commit_text, text, check=accepted)
+    print(f"{fit.message}\nwrote {out_path}", file=out)
     return 0
 
 
@@ -416,9 +616,17 @@ def main(argv=None) -> int:
     parser = _parser()
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse already printed a one-line usage error
+    except _UsageError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except SystemExit as exc:  # --help
         return EXIT_INPUT if exc.code else 0
-    prev = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
+    prev = {}
+    if _main_thread():
+        for name in SIGNALS:
+            sig = getattr(signal, name, None)
+            if sig is not None:
+                prev[sig] = signal.signal(sig, _on_signal)
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")   # one-line errors: no warning lines from libraries
@@ -427,8 +635,11 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        print("error: interrupted (no output written)", file=sys.stderr)
-        return 130
+        from vehicle_observers.data.logs import discard_active_partials
+
+        discard_active_partials()
+        print("error: interrupted by SIGINT (no output written)", file=sys.stderr)
+        return 128 + signal.SIGINT
     except BrokenPipeError:
         # the reader of stdout went away (e.g. `| head -1`): leave quietly, as a process
         # ended by SIGPIPE would (128 + 13); the output file, if any, is already complete
@@ -442,8 +653,8 @@ def main(argv=None) -> int:
         print(f"error: internal error {type(exc).__name__}: {msg}", file=sys.stderr)
         return EXIT_INTERNAL
     finally:
-        if prev is not None:
-            signal.signal(signal.SIGTERM, prev)
+        for sig, handler in prev.items():
+            signal.signal(sig, handler)
 
 
 def _main_thread() -> bool:

@@ -176,10 +176,27 @@ def _model_params(base: LateralParams, th: np.ndarray, nonlinear: bool,
     return replace(base, tire_f=LinearTire(Cf), tire_r=LinearTire(Cr))
 
 
-def _outputs(p: LateralParams, log: DriveLog, substeps: int):
+def open_loop_outputs(p: LateralParams, log: DriveLog, substeps: int = 4):
+    """Yaw rate [rad/s] and lateral acceleration ``(F_f + F_r)/m`` [m/s^2], each (N,), of the
+    single-track model (1) with steady tyre forces, simulated open loop from the log's
+    measured steering and speed (``v_y(0) = 0``, ``r(0)`` measured; fixed step ``log.dt``)."""
     X = simulate_s1([0.0, float(log.yaw_rate[0])], log.delta, log.vx, log.dt, p, exact=False,
                     relaxation=False, substeps=substeps)
     return X[:, 1], (X[:, 2] + X[:, 3]) / p.m
+
+
+_outputs = open_loop_outputs
+
+
+def unexplained_share(model, measured) -> float:
+    """RMS of ``model - measured`` over the standard deviation of ``measured``: 0 for a
+    perfect model, about 1 for one that explains nothing (inf for a zero-variance channel or a
+    non-finite model). Compared with :data:`MAX_UNEXPLAINED` by :func:`identify_stiffness`
+    and by :mod:`vehicle_observers.estimation.consistency`."""
+    model, measured = np.asarray(model, float), np.asarray(measured, float)
+    sd = float(np.std(measured))
+    rms = float(np.sqrt(np.mean((model - measured) ** 2)))
+    return rms / sd if sd > 0 and np.isfinite(rms) else float("inf")
 
 
 def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: float,
@@ -289,10 +306,11 @@ def identify_stiffness(log: DriveLog, m: float, I_z: float, a_f: float, a_r: flo
     p = _model_params(base, th, nonlin_kept, Fz)
     r_mod, ay_mod = _outputs(p, log, substeps)
     ay_mod = g_ay * ay_mod
-    rms = {c: float(np.sqrt(np.mean(((r_mod if c == "yaw_rate" else ay_mod) - meas[c])[sel] ** 2)))
-           for c in channels}
+    mod = {"yaw_rate": r_mod, "ay": ay_mod}
+    rms = {c: float(np.sqrt(np.mean((mod[c] - meas[c])[sel] ** 2))) for c in channels}
     spread = {c: float(np.std(meas[c][sel])) for c in channels}
-    poor = [c for c in channels if not (rms[c] <= MAX_UNEXPLAINED * spread[c])]
+    poor = [c for c in channels
+            if not (unexplained_share(mod[c][sel], meas[c][sel]) <= MAX_UNEXPLAINED)]
     singular = not (S.size and S.min() > 1e-9 * S.max())
     if poor or singular:
         ident = False

@@ -29,7 +29,12 @@ from __future__ import annotations
 import csv
 import gzip
 import io
+import json
 import os
+import re
+import secrets
+import socket
+import stat
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,6 +67,37 @@ class DriveLog:
     rho: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
+
+    def __post_init__(self):
+        """Refuse a log no consumer can use, naming the column and row: every schema channel
+        must be a 1-D array of finite numbers of the length of ``t`` (a NaN from a notebook
+        would otherwise surface as a NaN estimate or a solver error far from its cause);
+        ``extra`` columns must have that length (they may hold NaN: truth channels that are
+        not measured everywhere)."""
+        name = self.source or "DriveLog"
+        n = None
+        for c, a in _ATTR.items():
+            v = getattr(self, a)
+            if v is None:          # absent (an estimate read back has no steering, ...)
+                continue
+            v = np.asarray(v)
+            if v.ndim != 1 or not (np.issubdtype(v.dtype, np.number) or v.dtype == bool):
+                raise LogFormatError(f"{name}: column {c!r} must be a 1-D numeric array, got "
+                                     f"shape {v.shape} of {v.dtype}")
+            if n is None:
+                n = len(v)
+            elif len(v) != n:
+                raise LogFormatError(f"{name}: column {c!r} has {len(v)} rows, 't_s' has {n}")
+            if not np.isfinite(v).all():
+                bad = ~np.isfinite(v)
+                i = int(np.argmax(bad))
+                raise LogFormatError(f"{name}: column {c!r} has {int(bad.sum())} NaN/inf "
+                                     f"value(s), first at row {i} ({v[i]}); expected finite "
+                                     "numbers")
+        for c, v in self.extra.items():
+            if np.ndim(v) != 1 or len(v) != n:
+                raise LogFormatError(f"{name}: extra column {c!r} has shape {np.shape(v)}, "
+                                     f"expected ({n},)")
 
     def __len__(self):
         return len(self.t)
@@ -112,11 +148,109 @@ WRITE_BATCH = 1 << 20
 MAX_FIELD = 128 * 1024
 
 
-def partial_path(path) -> Path:
-    """The temporary file of an output being written: next to ``path``, named
-    ``<name>.partial-<pid>`` (renamed onto ``path`` once complete)."""
-    path = Path(path)
-    return path.with_name(f"{path.name}.partial-{os.getpid()}")
+# ------------------------------------------------------------------ outputs ---------------
+# Every file a command writes goes through :func:`check_output` (before any computing) and
+# :class:`AtomicOutput` (written to a hidden partial file, renamed into place when complete).
+
+
+class OutputError(ValueError):
+    """An output path that cannot be used: it is an input of the same command (whatever the
+    spelling), a folder or special file, in a missing folder, or its suffix names a format
+    that is not written. The message names the option and the reason."""
+
+
+def cache_dir() -> Path:
+    """Folder of the package's per-user state (ML-tuning and design caches, records of the
+    partial files being written): ``$VEHICLE_OBSERVERS_CACHE`` or
+    ``$XDG_CACHE_HOME/vehicle_observers`` (default ``~/.cache/vehicle_observers``)."""
+    d = os.environ.get("VEHICLE_OBSERVERS_CACHE")
+    if d:
+        return Path(d)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "vehicle_observers"
+
+
+#: suffixes of the CSV outputs (compared in lower case); the format follows the suffix:
+#: ``.csv.gz`` is written gzip-compressed
+CSV_SUFFIXES = (".csv", ".csv.gz")
+#: compression suffixes that are recognised but not written (refused naming them)
+OTHER_COMPRESSION = (".bz2", ".xz", ".lzma", ".zip", ".zst", ".lz4", ".7z", ".br", ".z")
+#: gzip level of ``.gz`` outputs (1: about 3x smaller than the text at the speed of the disk)
+GZIP_LEVEL = 1
+
+
+def output_suffix(path, suffixes=CSV_SUFFIXES, option: str = "--out") -> str:
+    """The suffix of ``path`` among ``suffixes`` (the longest that matches, case-insensitive);
+    raises :class:`OutputError` naming the suffix otherwise (a ``.xz`` or ``.txt`` name would
+    get content of another format)."""
+    name = Path(path).name.lower()
+    for s in sorted(suffixes, key=len, reverse=True):
+        if name.endswith(s) and len(name) > len(s):
+            return s
+    comp = next((c for c in OTHER_COMPRESSION if name.endswith(c)), None)
+    ext = "".join(Path(name).suffixes[-2:])
+    why = (f"{comp} compression is not written" if comp else
+           f"the suffix {ext!r} names no format written here" if ext else "the name has no suffix")
+    raise OutputError(f"{option} {path}: {why}; expected a name ending in "
+                      f"{' or '.join(suffixes)} (the format follows the suffix)")
+
+
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def special_file(path) -> str | None:
+    """What ``path`` is when it exists and is not a regular file (symlinks followed), e.g.
+    ``"a FIFO (named pipe)"``; ``None`` for a regular file or a missing path. Reading a FIFO
+    without a writer blocks forever and a device never ends: such inputs are refused."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def same_file(a, b) -> bool:
+    """``a`` and ``b`` are one file (same device and inode: symlinks, hard links, relative and
+    absolute spellings, ``/proc/self/fd/N``); False when either does not exist."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def check_output(path, inputs=None, suffixes=CSV_SUFFIXES, option: str = "--out") -> Path:
+    """Validate an output path before any computing; returns it as a :class:`Path`.
+
+    ``inputs``: ``{description: path}`` of the command's inputs (e.g. ``{"the input log":
+    log, "the vehicle file": vehicle_path}``); ``None`` values are skipped. Refused with
+    :class:`OutputError`: an output that is one of the inputs (:func:`same_file`), a folder
+    or special file (:func:`special_file`), in a folder that does not exist, or whose suffix
+    is not in ``suffixes`` (:func:`output_suffix`). Every command that writes (``estimate``,
+    ``identify``, and any later one writing several files) calls this for each output with
+    all its inputs.
+    """
+    raw = str(path)
+    if not raw.strip():
+        raise OutputError(f"{option}: empty path")
+    out = Path(raw)
+    for what, inp in (inputs or {}).items():
+        if inp is not None and same_file(out, inp):
+            raise OutputError(f"{option} {raw}: is {what} ({inp}); writing there would destroy "
+                              "it: choose another file")
+    kind = special_file(out)
+    if kind is not None:
+        raise OutputError(f"{option} {raw}: is {kind}, expected the path of a regular file to "
+                          "write")
+    folder = out.parent
+    if not folder.exists():
+        raise OutputError(f"{option} {raw}: folder {folder} does not exist")
+    if not folder.is_dir():
+        raise OutputError(f"{option} {raw}: {folder} is not a folder")
+    output_suffix(out, suffixes, option)
+    return out
 
 
 def _pid_alive(pid: int) -> bool:
@@ -129,63 +263,171 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_partials(path) -> list[Path]:
-    """Delete ``<name>.partial-<pid>`` files next to ``path`` whose process is gone (left by
-    a run killed with SIGKILL). Returns the files removed."""
-    path = Path(path)
+#: name of a partial file: hidden, with the writer's pid and a random token (a user's file
+#: cannot collide with it by accident; a killed run's files are found by their records)
+_PARTIAL_RE = re.compile(r"\..+\.(\d+)-([0-9a-f]{16})\.partial")
+
+
+def partials_registry() -> Path:
+    """Folder of the records of partial files being written (:func:`cache_dir` /
+    ``partials``): one JSON file per partial file with its path, device, inode and writer."""
+    return cache_dir() / "partials"
+
+
+def _record_partial(tmp: Path, token: str, st) -> Path | None:
+    """Write the record of a partial file just created; ``None`` if the registry cannot be
+    written (the file is then never removed by a later run, only by this one)."""
+    rec = {"partial": str(tmp.resolve()), "pid": os.getpid(), "host": socket.gethostname(),
+           "dev": st.st_dev, "ino": st.st_ino}
+    try:
+        reg = partials_registry()
+        reg.mkdir(parents=True, exist_ok=True)
+        m = reg / f"{token}.json"
+        m.write_text(json.dumps(rec))
+        return m
+    except OSError:
+        return None
+
+
+def remove_stale_partials() -> list[Path]:
+    """Delete the partial files of runs that were killed (SIGKILL, power loss): only files
+    that this program recorded (:func:`partials_registry`), whose writer process is gone, and
+    that are still the file recorded (same device and inode, a regular file with a partial
+    file's name); a user's file is never touched. Returns the files removed."""
     gone = []
-    for f in path.parent.glob(f"{path.name}.partial-*"):
-        pid = f.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
-            f.unlink(missing_ok=True)
-            gone.append(f)
+    try:
+        records = sorted(partials_registry().glob("*.json"))
+    except OSError:
+        return gone
+    host = socket.gethostname()
+    for m in records:
+        try:
+            d = json.loads(m.read_text())
+            pid, f, dev, ino = int(d["pid"]), Path(d["partial"]), int(d["dev"]), int(d["ino"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if d.get("host") != host or pid == os.getpid() or _pid_alive(pid):
+            continue
+        try:
+            st = os.lstat(f)
+            if (st.st_dev, st.st_ino) == (dev, ino) and stat.S_ISREG(st.st_mode) \
+                    and _PARTIAL_RE.fullmatch(f.name):
+                f.unlink()
+                gone.append(f)
+        except FileNotFoundError:
+            pass
+        except OSError:
+            continue
+        try:
+            m.unlink()
+        except OSError:
+            pass
     return gone
 
 
-#: partial files being written by this process (removed by the command line on SIGTERM)
-ACTIVE_PARTIALS: set = set()
+#: partial files being written by this process, ``{partial file: its record or None}``
+#: (removed by the command line's signal handler)
+ACTIVE_PARTIALS: dict = {}
+
+
+def discard_active_partials():
+    """Remove every partial file of this process and its record (signal handlers: no
+    exception is raised, errors are ignored)."""
+    for p, m in list(ACTIVE_PARTIALS.items()):
+        for f in (p, m):
+            if f is not None:
+                try:
+                    os.unlink(f)
+                except OSError:
+                    pass
+        ACTIVE_PARTIALS.pop(p, None)
 
 
 class AtomicOutput:
-    """An output CSV written completely or not at all.
+    """An output file written completely or not at all.
 
-    ``with AtomicOutput(path) as out: ...; out.commit(columns)``: on entry, stale partial
-    files of killed runs are removed and the partial file is created at once (so an
-    unwritable folder fails before any computing); :meth:`commit` writes it and renames it
-    onto ``path``; leaving the block without a commit (error, SIGTERM turned into an
-    exception) deletes it. The file gets the normal permissions (``0666 & ~umask``).
+    ``with AtomicOutput(path) as out: ...; out.commit(columns)`` (or ``commit_text``): on
+    entry, the partial files of killed runs are removed (:func:`remove_stale_partials`) and
+    this run's partial file is created at once (so an unwritable folder fails before any
+    computing), next to ``path`` under a hidden name with a random token
+    (``.<name>.<pid>-<token>.partial``, created exclusively: no existing file is touched) and
+    recorded in :func:`partials_registry`; ``commit`` writes it and renames it onto ``path``;
+    leaving the block without a commit (error, signal) deletes it. A name ending in ``.gz``
+    is written gzip-compressed (``compress`` overrides). The file gets the normal
+    permissions (``0666 & ~umask``).
     """
 
-    def __init__(self, path):
+    def __init__(self, path, compress: bool | None = None):
         self.path = Path(path)
-        self.tmp = partial_path(self.path)
+        self.token = secrets.token_hex(8)
+        self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}-{self.token}.partial")
+        self.compress = self.path.name.lower().endswith(".gz") if compress is None else compress
         self.done = False
 
     def __enter__(self):
-        remove_stale_partials(self.path)
-        fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
-        os.close(fd)
-        ACTIVE_PARTIALS.add(self.tmp)
+        remove_stale_partials()
+        fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        try:
+            st = os.fstat(fd)
+        finally:
+            os.close(fd)
+        ACTIVE_PARTIALS[self.tmp] = None
+        ACTIVE_PARTIALS[self.tmp] = _record_partial(self.tmp, self.token, st)
         return self
 
     def commit(self, columns: dict, progress=None):
-        _write_table(self.tmp, columns, progress)
+        """Write ``columns`` as CSV (:func:`_write_table`) and rename into place."""
+        _write_table(self.tmp, columns, progress, compress=self.compress,
+                     gzip_name=self.path.name)
+        self._finish()
+
+    def commit_text(self, text: str, check=None):
+        """Write ``text`` (UTF-8), call ``check(partial_path)`` (which may raise: nothing is
+        written then), and rename into place."""
+        data = text.encode("utf-8")
+        if self.compress:
+            data = gzip.compress(data, compresslevel=GZIP_LEVEL, mtime=0)
+        _write_bytes(self.tmp, data)
+        if check is not None:
+            check(self.tmp)
+        self._finish()
+
+    def _finish(self):
         os.replace(self.tmp, self.path)
-        ACTIVE_PARTIALS.discard(self.tmp)
         self.done = True
+        self._forget()
+
+    def _forget(self):
+        m = ACTIVE_PARTIALS.pop(self.tmp, None)
+        if m is not None:
+            try:
+                m.unlink()
+            except OSError:
+                pass
 
     def __exit__(self, *exc):
         if not self.done:
-            self.tmp.unlink(missing_ok=True)
-        ACTIVE_PARTIALS.discard(self.tmp)
+            try:
+                self.tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+        self._forget()
         return False
 
 
-def _write_table(path, columns: dict, progress=None):
+def _write_bytes(path, data: bytes):
+    """Write ``data`` to ``path`` (the one place small outputs are written)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+
+
+def _write_table(path, columns: dict, progress=None, compress: bool = False,
+                 gzip_name: str = ""):
     """CSV with polars' writer (header line, comma separated, shortest round-trip floats
     (Ryu), integer / boolean columns as integers), in batches of :data:`WRITE_BATCH` rows with
-    ``progress(rows_written, rows)`` after each. polars formats floats more than twice as fast
-    as pyarrow's writer."""
+    ``progress(rows_written, rows)`` after each; gzip-compressed (level :data:`GZIP_LEVEL`,
+    stored name ``gzip_name`` without ``.gz``) when ``compress``. polars formats floats more
+    than twice as fast as pyarrow's writer."""
     import polars as pl
 
     names = list(columns)
@@ -197,7 +439,9 @@ def _write_table(path, columns: dict, progress=None):
     for c, a in zip(names, arrs):
         if a.shape != (n,):
             raise ValueError(f"column {c!r} has shape {a.shape}, expected ({n},)")
-    with open(path, "wb") as fh:
+    with open(path, "wb") as raw:
+        fh = (gzip.GzipFile(filename=gzip_name, mode="wb", fileobj=raw,
+                            compresslevel=GZIP_LEVEL, mtime=0) if compress else raw)
         fh.write((",".join(names) + "\n").encode())   # plain header line, never quoted
         for a in range(0, n, WRITE_BATCH):
             b = min(n, a + WRITE_BATCH)
@@ -205,16 +449,25 @@ def _write_table(path, columns: dict, progress=None):
                 fh, include_header=False, quote_style="never")
             if progress is not None:
                 progress(b, n)
+        if compress:
+            fh.close()
 
 
 def write_csv(path, columns: dict[str, np.ndarray], progress=None):
-    """Write named equal-length columns as CSV (polars), completely or not at all."""
+    """Write named equal-length columns as CSV (polars), completely or not at all; a name
+    ending in ``.gz`` is written gzip-compressed."""
     with AtomicOutput(path) as out:
         out.commit(columns, progress)
 
 
+def is_gzip(path) -> bool:
+    """The file starts with the gzip magic bytes (the content decides, not the name)."""
+    with open(path, "rb") as fh:
+        return fh.read(2) == b"\x1f\x8b"
+
+
 def _open_text(path: Path):
-    if path.suffix == ".gz":
+    if is_gzip(path):
         return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8-sig")
     return open(path, encoding="utf-8-sig", newline="")
 
@@ -266,7 +519,7 @@ class _Guard(io.RawIOBase):
 
     def __init__(self, path: Path, progress=None):
         self.raw = open(path, "rb")
-        self.fh = gzip.GzipFile(fileobj=self.raw) if path.suffix == ".gz" else self.raw
+        self.fh = gzip.GzipFile(fileobj=self.raw) if is_gzip(path) else self.raw
         self.size = max(path.stat().st_size, 1)
         self.progress = progress
         self.lines = 0        # newlines seen
@@ -316,10 +569,10 @@ BLOCK = 1 << 22
 
 
 def _text_size(path: Path) -> int:
-    """Bytes of CSV text: the file size, or for ``.gz`` the size stored in its trailer (the
+    """Bytes of CSV text: the file size, or for gzip the size stored in its trailer (the
     uncompressed size modulo 2^32; the compressed size when that is smaller)."""
     size = path.stat().st_size
-    if path.suffix != ".gz" or size < 18:
+    if size < 18 or not is_gzip(path):
         return size
     with open(path, "rb") as fh:
         fh.seek(-4, os.SEEK_END)
@@ -402,8 +655,17 @@ def load_log(path, min_vx: float | None = 0.0, required=REQUIRED, columns=None,
     name = path.name
     if not path.exists():
         raise LogFormatError(f"{path}: no such file")
-    if path.is_dir():
-        raise LogFormatError(f"{path}: is a directory, expected a CSV file")
+    kind = special_file(path)
+    if kind is not None:
+        raise LogFormatError(f"{path}: is {kind}, expected a regular CSV file (a pipe or "
+                             "device is not read: save the data to a file first)")
+    try:
+        gz = is_gzip(path)
+    except OSError as exc:
+        raise LogFormatError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    if path.name.lower().endswith(".gz") and not gz:
+        raise LogFormatError(f"{name}: cannot read: named .gz but not gzip-compressed "
+                             "(rename it to .csv if it is plain text)")
     header = _read_header(path, name)
     dup = {h for h in header if header.count(h) > 1}
     if dup:
@@ -501,17 +763,282 @@ def _consistency(log: DriveLog, wheelbase: float) -> str | None:
     return None
 
 
+# ------------------------------------------------------------------ changes of unit -------
+# A unit can change in the middle of a log (a logger reconfigured, two files concatenated):
+# the whole-column checks above then pass on the majority of rows. Each channel is checked
+# for a change of scale at one row that persists (:func:`scale_change`).
+
+#: a persistent change of the sampling interval by this factor (either way) is a change of
+#: time unit (ms: x1000, us: x1e6, min -> s: x60), not a change of logger rate (100 -> 10 Hz
+#: is x10)
+DT_SCALE_CHANGE = 30.0
+#: a step of a channel by this factor (either way) at one row that persists is a change of
+#: unit (km/h x3.6, ft/s^2 x3.3, lbf x4.4, g x9.8, deg x57, cm x100, mm x1000, steering wheel x15)
+SCALE_STEP = 3.0
+#: rows before and after a step that must stay at their level (a spike is not a change)
+STEP_HOLD = 5
+#: per column: the level below which a step is not judged (standstill, straight driving,
+#: quantised low-speed wheel speeds), in the column's unit
+STEP_FLOOR = {"vx_mps": 2.0, "delta_roadwheel_rad": 0.005, "yaw_rate_radps": 0.02,
+              "ay_mps2": 0.5, "vy_mps": 0.05, "yL_m": 0.05, "psiL_rad": 0.005,
+              "Ff_N": 1000.0, "Fr_N": 1000.0, "rho_1pm": 1e-3}
+#: the likely mistake for a step by a factor ``f`` (first match of ``lo <= f <= hi``)
+_STEP_WHY = ((3.0, 4.2, "km/h (x3.6) or ft (x3.3)"), (8.5, 11.0, "g (x1/9.81) or x10"),
+             (12.0, 20.0, "the steering-wheel angle (ratio ~15)"),
+             (45.0, 70.0, "degrees (x57.3)"), (80.0, 120.0, "cm (x100)"),
+             (800.0, 1200.0, "milli-units (x1000)"))
+
+
+def _step_why(f: float) -> str:
+    g = max(f, 1.0 / f)
+    for lo, hi, why in _STEP_WHY:
+        if lo <= g <= hi:
+            return f"{why} from that row?"
+    return "a change of unit from that row?"
+
+
+def _noise_of_steps(x: np.ndarray, block: int = 200, blocks: int = 2000) -> float:
+    """Robust std of the one-sample changes of a channel in its quietest stretches: the 10th
+    percentile over blocks of ``block`` changes (at most ``blocks`` blocks, evenly spread
+    over the log) of 1.4826 x the median nonzero change (a held channel, e.g. vision frames
+    at 25 Hz in a 1 kHz log, has mostly zero changes; a block with fewer than 10 % nonzero
+    changes counts as 0). Blocks keep a part of the log in another unit from setting the
+    level."""
+    n = (len(x) - 1) // block
+    if n < 1:
+        d = np.abs(np.diff(x))
+        d = d[d != 0]
+        return float(1.482602218505602 * np.median(d)) if len(d) else 0.0
+    starts = np.unique(np.linspace(0, n - 1, min(n, blocks)).astype(np.int64)) * block
+    idx = starts[:, None] + np.arange(block)[None, :]
+    D = np.abs(x[idx + 1] - x[idx])
+    nz = D != 0
+    share = nz.mean(axis=1)
+    D = np.where(nz, D, np.inf)
+    D.sort(axis=1)
+    cnt = nz.sum(axis=1)
+    med = np.where(cnt > 0, D[np.arange(len(D)), np.maximum(cnt - 1, 0) // 2], 0.0)
+    mad = np.where(share >= 0.1, 1.482602218505602 * med, 0.0)
+    return float(np.percentile(mad, 10))
+
+
+def _time_scale_change(t: np.ndarray) -> tuple[int, float, float] | None:
+    """``(row, dt_before, dt_after)`` where the sampling interval changes by more than
+    :data:`DT_SCALE_CHANGE` and stays so for at least 20 steps (a single long step is a gap,
+    not a change of unit); ``None`` otherwise."""
+    d = np.diff(t)
+    if len(d) < 40:
+        return None
+    med = float(np.median(d))
+    if not med > 0:
+        return None
+    far = np.abs(np.log(np.maximum(d, 1e-300) / med)) > np.log(DT_SCALE_CHANGE)
+    if not far.any():
+        return None
+    edges = np.flatnonzero(np.diff(np.r_[0, far.astype(np.int8), 0]))
+    starts, ends = edges[::2], edges[1::2]
+    for a, b in zip(starts, ends):
+        if b - a >= 20:
+            # the step into the new unit (t[k] - t[k-1], index k - 1) is far from both regimes:
+            # it ends a run at the start, or begins a run after it
+            row = int(a) + 1 if a > 0 else int(b)
+            before = float(np.median(d[max(a - 20, 0):a])) if a > 0 else float(np.median(d[a:b]))
+            after = float(np.median(d[a + 1:b])) if a > 0 else float(np.median(d[b:b + 20]))
+            return (row, before, after)
+    return None
+
+
+def _value_step(x: np.ndarray, floor: float, gap: np.ndarray) -> tuple[int, float] | None:
+    """First row ``k`` where the channel steps by a factor ``f = x_k / x_{k-1}`` with
+    ``|ln f| >= ln`` :data:`SCALE_STEP` (same sign, the larger level above ``floor`` and 10
+    noise stds, the smaller above 10 noise stds, the step above 20 noise stds) and holds
+    both levels :data:`STEP_HOLD` rows before and after (a spike is not a change of unit); a
+    row after a time gap (``gap[k]``) is skipped.
+    A change of unit where the channel crosses zero is not seen here (the range and
+    cross-channel checks see it). Returns ``(k, f)`` or ``None``."""
+    n = len(x)
+    h = STEP_HOLD
+    if n < 2 * h + 2:
+        return None
+    sd = _noise_of_steps(x)
+    level = max(floor, 10.0 * sd)
+    # candidates first (a step above 20 noise stds is rare in a log), then the other tests
+    d = np.diff(x)
+    i = np.flatnonzero(np.abs(d) > 20.0 * sd)
+    i = i[~gap[i + 1]]
+    a, b = x[i], x[i + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = b / a
+    lo, hi = np.minimum(np.abs(a), np.abs(b)), np.maximum(np.abs(a), np.abs(b))
+    keep = ((hi > level) & (lo > 10.0 * sd) & (q > 0)
+            & (np.abs(np.log(np.where(q > 0, q, 1.0))) >= np.log(SCALE_STEP)))
+    for j in np.flatnonzero(keep):
+        k = int(i[j]) + 1
+        if k < h or k + h > n:
+            continue
+        jump = abs(x[k] - x[k - 1])
+        if np.all(np.abs(x[k - h:k] - x[k - 1]) < 0.25 * jump) and \
+                np.all(np.abs(x[k:k + h] - x[k]) < 0.25 * jump):
+            return k, float(q[j])
+    return None
+
+
+def _noise_shift_row(x: np.ndarray, a: int, b: int) -> int | None:
+    """Row in ``[a, b)`` where the level of ``log |second difference|`` of ``x`` shifts most
+    (the largest two-sample t statistic of a single mean shift): a change of unit multiplies
+    the channel's noise and curvature by its factor, so it moves this level by ``ln f`` from
+    the row of the change on, even where the channel itself is near zero. ``None`` when the
+    window is too short."""
+    a, b = max(int(a), 0), min(int(b), len(x))
+    if b - a < 40:
+        return None
+    d2 = np.abs(x[a + 2:b] - 2.0 * x[a + 1:b - 1] + x[a:b - 2])
+    pos = d2[d2 > 0]
+    if len(pos) < 20:
+        return None
+    L = np.log(np.maximum(d2, pos.min()))
+    n = len(L)
+    c = np.cumsum(L)
+    j = np.arange(5, n - 5)
+    m1 = c[j - 1] / j
+    m2 = (c[-1] - c[j - 1]) / (n - j)
+    stat_ = np.abs(m2 - m1) * np.sqrt(j * (n - j) / n)
+    i = int(j[np.argmax(stat_)])
+    return a + i        # the first level-shifted second difference is the first whose three
+    #                     rows are mostly in the new unit (found on shifted test channels)
+
+
+def _gain_change(y: np.ndarray, z: np.ndarray, blocks: int = 400):
+    """Change of the gain of ``y = k z + c`` at one row: the split into two stretches with
+    their own ``(k, c)`` that explains the data best (candidate splits every ``n / blocks``
+    rows, each side holding at least 10 % of the excitation ``sum (z - mean z)^2``). Returns
+    ``(row, k_after / k_before, (a, b))`` when the ratio is at least :data:`SCALE_STEP` either
+    way and the split removes at least half of the residual of one gain (``a, b``: rows
+    around the split where the change must lie; the row is only as precise as the excitation
+    there); ``None`` otherwise."""
+    n = len(y)
+    if n < 200:
+        return None
+    edges = np.unique(np.linspace(0, n, min(blocks, n // 20) + 1).astype(np.int64))
+    idx = edges[:-1]
+    S = {k: np.add.reduceat(v, idx) for k, v in (("1", np.ones(n)), ("z", z), ("y", y),
+                                                   ("zz", z * z), ("zy", z * y),
+                                                   ("yy", y * y))}
+    C = {k: np.cumsum(v) for k, v in S.items()}
+    T = {k: v[-1] for k, v in C.items()}
+
+    def fit(s):
+        m = np.maximum(s["1"], 1.0)
+        vzz = s["zz"] - s["z"] ** 2 / m
+        vzy = s["zy"] - s["z"] * s["y"] / m
+        vyy = s["yy"] - s["y"] ** 2 / m
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = vzy / vzz
+            sse = vyy - vzy * k
+        return k, sse, vzz
+
+    k_all, sse_all, e_all = fit(T)
+    if not (e_all > 0 and sse_all > 0):
+        return None
+    left = {k: v[:-1] for k, v in C.items()}
+    right = {k: T[k] - v for k, v in left.items()}
+    kl, sl, el = fit(left)
+    kr, sr, er = fit(right)
+    ok = (el >= 0.1 * e_all) & (er >= 0.1 * e_all) & (kl > 0) & (kr > 0)
+    if not ok.any():
+        return None
+    tot = np.where(ok, sl + sr, np.inf)
+    i = int(np.argmin(tot))
+    ratio = float(kr[i] / kl[i])
+    if not (abs(np.log(ratio)) >= np.log(SCALE_STEP) and tot[i] <= 0.5 * sse_all):
+        return None
+    # the row inside the two blocks around the split: least squares with both gains fixed
+    a, b = int(edges[max(i, 0)]), int(edges[min(i + 2, len(edges) - 1)])
+    cl = (left["y"][i] - kl[i] * left["z"][i]) / max(left["1"][i], 1.0)
+    cr = (right["y"][i] - kr[i] * right["z"][i]) / max(right["1"][i], 1.0)
+    el_ = (y[a:b] - kl[i] * z[a:b] - cl) ** 2
+    er_ = (y[a:b] - kr[i] * z[a:b] - cr) ** 2
+    cost = np.r_[0.0, np.cumsum(el_)] + (er_.sum() - np.r_[0.0, np.cumsum(er_)])
+    # splits that fit nearly as well (a stretch without excitation between them): the change
+    # lies somewhere in there
+    near = np.flatnonzero(tot <= tot[i] + 0.05 * (sse_all - tot[i]))
+    return a + int(np.argmin(cost)), ratio, (int(edges[max(near.min(), 0)]),
+                                             int(edges[min(near.max() + 2, len(edges) - 1)]))
+
+
+def scale_change(log: DriveLog, columns=None) -> str | None:
+    """Message naming the first change of unit inside the log, or ``None``.
+
+    * ``t_s``: the sampling interval changes by :data:`DT_SCALE_CHANGE` or more and stays
+      (e.g. seconds, then milliseconds from some row);
+    * every other column of :data:`PLAUSIBLE` (``columns``: a subset): a persistent step by
+      :data:`SCALE_STEP` or more at one row (:func:`_value_step`; a spike or a step across a
+      time gap is not one);
+    * ``ay_mps2`` also against ``v_x r`` (:func:`_gain_change`): a noisy accelerometer's
+      step can hide in its noise, the gain between the channels cannot.
+
+    Rows are counted from 0 (file line = row + 2)."""
+    name = log.source or "log"
+    cols = log.columns()
+    if columns is not None:
+        cols = {c: v for c, v in cols.items() if c in set(columns) | {"t_s"}}
+    found = []
+    ch = _time_scale_change(log.t)
+    if ch is not None:
+        k, d0, d1 = ch
+        f = d1 / d0
+        why = ("time in milliseconds from that row?" if 300 <= f <= 3000 else
+               "time in microseconds from that row?" if 3e5 <= f <= 3e6 else
+               "a change of time unit from that row?")
+        found.append((k, f"column 't_s' changes scale at row {k} (line {k + 2}): sampling "
+                         f"interval {d0:.4g} s before, {d1:.4g} s after (x{f:.3g}): {why}"))
+    d = np.diff(log.t)
+    med = float(np.median(d)) if len(d) else 0.0
+    gap = np.r_[False, d > 3.0 * med] if len(d) else np.zeros(len(log), bool)
+    for c, floor in STEP_FLOOR.items():
+        x = cols.get(c)
+        if x is None:
+            continue
+        st = _value_step(np.asarray(x, float), floor, gap)
+        if st is not None:
+            k, f = st
+            found.append((k, f"column {c!r} changes scale at row {k} (line {k + 2}): "
+                             f"{float(x[k - 1]):.4g} -> {float(x[k]):.4g} (x{f:.3g}) and stays: "
+                             f"{_step_why(f)}"))
+    if not found and "ay_mps2" in cols and log.ay is not None:
+        mv = np.flatnonzero(np.abs(log.vx) > 5.0)
+        if len(mv) >= 200:
+            g = _gain_change(log.ay[mv], log.vx[mv] * log.yaw_rate[mv])
+            if g is not None:
+                k, f = int(mv[g[0]]), g[1]
+                lo, hi = int(mv[g[2][0]]), int(mv[min(g[2][1], len(mv) - 1)])
+                # the row itself from the accelerometer's noise, scaled by the same factor
+                j = _noise_shift_row(log.ay, lo, hi + 1)
+                k = k if j is None else j
+                found.append((k, f"columns 'ay_mps2' and 'vx_mps' x 'yaw_rate_radps' change "
+                                 f"their ratio at row {k} (line {k + 2}) by x{f:.3g} and keep "
+                                 f"it: a unit of 'ay_mps2' (or of 'vx_mps' / 'yaw_rate_radps') "
+                                 f"changes there: {_step_why(f)}"))
+    if not found:
+        return None
+    k, msg = min(found, key=lambda kv: kv[0])
+    return f"{name}: {msg}"
+
+
 def check_plausible(log: DriveLog, wheelbase: float | None = None, accept: bool = False):
     """Refuse a log whose values cannot be those of a road vehicle in SI units.
 
-    Raises :class:`LogFormatError` naming the column and the likely unit mistake when a
-    column leaves its :data:`PLAUSIBLE` range, the median sampling interval leaves
+    Raises :class:`LogFormatError` naming the column, the row and the likely unit mistake
+    when a unit changes inside the log (:func:`scale_change`), a column leaves its
+    :data:`PLAUSIBLE` range (when the column's noise level jumps shortly before, the row of
+    that jump is named as where the unit changes), the median sampling interval leaves
     :data:`DT_RANGE` (time in ms or us), or the channels disagree (:func:`_consistency`,
     needs ``wheelbase`` [m]). ``accept=True`` (``--accept-out-of-range``) skips these checks
     for a log that really is out of range; values above :data:`ABSURD` are refused always.
     """
     name = log.source or "log"
-    for c, v in log.columns().items():
+    cols = log.columns()
+    for c, v in cols.items():
         big = np.abs(v) > (ABSURD if c != "t_s" else 1e15)
         if big.any():
             i = int(np.argmax(big))
@@ -519,16 +1046,28 @@ def check_plausible(log: DriveLog, wheelbase: float | None = None, accept: bool 
                                  f"{i} (line {i + 2}); refused before computing")
     if accept:
         return
+    tail = " (--accept-out-of-range accepts it)"
+    msg = scale_change(log)
+    if msg:
+        raise LogFormatError(msg + tail)
     for c, (lo, hi, why) in PLAUSIBLE.items():
-        v = log.columns().get(c)
+        v = cols.get(c)
         if v is None:
             continue
         out = (v < lo) | (v > hi)
         if out.any():
             i = int(np.argmax(out))
+            j = _noise_shift_row(v, i - 5000, i + 1) if i >= 200 else None
+            if j is not None and 0 < j <= i:
+                L = np.log(np.abs(np.diff(v[max(j - 200, 0):i + 1], 2)) + 1e-300)
+                k = j - max(j - 200, 0)
+                if k > 20 and np.median(L[k:]) - np.median(L[:k - 2]) >= np.log(SCALE_STEP):
+                    raise LogFormatError(
+                        f"{name}: column {c!r} changes scale at row {j} (line {j + 2}): its "
+                        f"noise grows there and from row {i} (line {i + 2}) it is outside the "
+                        f"plausible range [{lo:g}, {hi:g}] ({v[i]:.4g}): {why}{tail}")
             raise LogFormatError(f"{name}: column {c!r} = {v[i]:.4g} at row {i} (line {i + 2}) "
-                                 f"is outside the plausible range [{lo:g}, {hi:g}]: {why} "
-                                 f"(--accept-out-of-range accepts it)")
+                                 f"is outside the plausible range [{lo:g}, {hi:g}]: {why}{tail}")
     if len(log) > 1:
         dt = float(np.median(np.diff(log.t)))
         if not DT_RANGE[0] <= dt <= DT_RANGE[1]:
@@ -536,11 +1075,11 @@ def check_plausible(log: DriveLog, wheelbase: float | None = None, accept: bool 
                    else "time in a unit smaller than seconds, or a sampling rate above 10 kHz?")
             raise LogFormatError(f"{name}: column 't_s' has a median sampling interval of "
                                  f"{dt:.4g} s, outside [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s: "
-                                 f"{why} (--accept-out-of-range accepts it)")
+                                 f"{why}{tail}")
     if wheelbase is not None:
         msg = _consistency(log, wheelbase)
         if msg:
-            raise LogFormatError(f"{name}: {msg} (--accept-out-of-range accepts it)")
+            raise LogFormatError(f"{name}: {msg}{tail}")
 
 
 def despike(x, threshold: float):

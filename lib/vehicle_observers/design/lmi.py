@@ -20,20 +20,39 @@ LMI regions (Chilali & Gahinet, IEEE TAC 41(3), 1996), used by Ichalal 2011 eqs.
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-import cvxpy as cp
 import numpy as np
 
-from vehicle_observers.core.errors import CertificationError, InfeasibleDesign
+from vehicle_observers.core.errors import (
+    CertificationError,
+    InfeasibleDesign,
+    ObserverArgumentError,
+)
 
 Builder = Callable[["Values"], object]
 
 
+class _LazyCvxpy:
+    """``cvxpy`` imported on first use (about 1-2 s: scipy.stats and the solvers): running a
+    design read from a cache, or reading certificates, never needs it."""
+
+    def __getattr__(self, name):
+        import cvxpy
+
+        globals()["cp"] = cvxpy
+        return getattr(cvxpy, name)
+
+
+cp = _LazyCvxpy()
+
+
 def _is_expr(x) -> bool:
-    return isinstance(x, cp.Expression)
+    # a cvxpy expression exists only once cvxpy is imported
+    return "cvxpy" in sys.modules and isinstance(x, sys.modules["cvxpy"].Expression)
 
 
 class LMIDataError(InfeasibleDesign):
@@ -51,6 +70,29 @@ def _check_finite(design: str, name: str, M):
             raise LMIDataError(f"{design}: constraint {name!r} has {bad} in its data (expected "
                                f"finite matrices; check the model constants)", lmi=name,
                                status="bad_data")
+
+
+def _shape(M) -> tuple:
+    return tuple(M.shape) if _is_expr(M) else np.shape(np.asarray(M, dtype=float))
+
+
+def _check_shape(design: str, name: str, M, kind: str):
+    """Raise :class:`ObserverArgumentError` naming the constraint unless its matrix is 2-D
+    (a scalar counts as 1 x 1) and, for a definite constraint, square and not empty."""
+    sh = _shape(M)
+    if len(sh) > 2 or (len(sh) == 2 and 0 in sh):
+        raise ObserverArgumentError(f"{design}: constraint {name!r} is an array of shape {sh}; "
+                                    "expected a non-empty matrix")
+    if kind in ("neg", "pos") and len(sh) == 2 and sh[0] != sh[1]:
+        raise ObserverArgumentError(f"{design}: constraint {name!r} is a {sh[0]} x {sh[1]} "
+                                    "matrix; a definite (LMI) constraint must be square "
+                                    "(check the shapes of its variables and constants)")
+
+
+def _positive_int(design: str, what: str, n) -> int:
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ObserverArgumentError(f"{design}: {what} must be a positive integer, got {n!r}")
+    return int(n)
 
 
 def bmat(blocks):
@@ -75,14 +117,21 @@ def symmetric_part(x):
     return (x + x.T) / 2
 
 
+class _MissingVariable(AttributeError, KeyError):
+    """A builder read a variable the design does not define."""
+
+
 class Values(dict):
     """Decision variables by name, also readable as attributes (``V.P`` or ``V["P"]``)."""
 
     def __getattr__(self, name):
         try:
             return self[name]
-        except KeyError as exc:
-            raise AttributeError(name) from exc
+        except KeyError:
+            raise _MissingVariable(name) from None
+
+    def __missing__(self, name):
+        raise _MissingVariable(name)
 
 
 @dataclass
@@ -188,16 +237,25 @@ def check_matrix(name: str, M, kind: str) -> ConstraintCheck:
 
     kind: ``"neg"`` (M < 0), ``"pos"`` (M > 0) or ``"nonneg"`` (every entry >= 0).
     """
+    if kind not in ("neg", "pos", "nonneg"):
+        raise ObserverArgumentError(f"check_matrix: kind must be 'neg', 'pos' or 'nonneg', got "
+                                    f"{kind!r}")
     M = np.atleast_2d(np.asarray(M, dtype=float))
+    _check_shape("check_matrix", name, M, kind)
     if not np.all(np.isfinite(M)):
         return ConstraintCheck(name, kind, -np.inf, -np.inf, np.nan, M.shape[0])
     if kind == "nonneg":
         scale = max(float(np.max(np.abs(M))), 1e-300)
         m = float(M.min())
         return ConstraintCheck(name, kind, m, m / scale, 0.0, M.size)
-    S = (M + M.T) / 2
-    asym = float(np.max(np.abs(M - M.T))) / max(float(np.max(np.abs(M))), 1e-300)
-    ev = np.linalg.eigvalsh(S)
+    with np.errstate(over="ignore", invalid="ignore"):
+        S = M / 2 + M.T / 2                 # no overflow for entries near the float limit
+        asym = float(np.max(np.abs(M / 2 - M.T / 2))) * 2 / max(float(np.max(np.abs(M))),
+                                                                1e-300)
+    try:
+        ev = np.linalg.eigvalsh(S)
+    except np.linalg.LinAlgError:           # LAPACK did not converge: not certified
+        return ConstraintCheck(name, kind, -np.inf, -np.inf, asym, M.shape[0])
     scale = max(float(np.max(np.abs(ev))), 1e-300)
     margin = float(-ev[-1]) if kind == "neg" else float(ev[0])
     return ConstraintCheck(name, kind, margin, margin / scale, asym, M.shape[0])
@@ -241,6 +299,9 @@ class LMIDesign:
     """
 
     def __init__(self, name: str, eps: float = 1e-7):
+        if not (isinstance(eps, (int, float, np.floating)) and np.isfinite(eps) and eps >= 0):
+            raise ObserverArgumentError(f"LMIDesign {name!r}: eps must be a finite number >= 0, "
+                                        f"got {eps!r}")
         self.name = name
         self.eps = eps
         self._vars: dict[str, cp.Expression] = {}
@@ -258,15 +319,24 @@ class LMIDesign:
         return expr
 
     def symmetric(self, name: str, n: int):
+        """A symmetric ``n x n`` matrix variable (``n`` a positive integer)."""
+        n = _positive_int(self.name, f"symmetric variable {name!r}: n", n)
         v = cp.Variable((n, n), symmetric=True, name=name)
         return self._add(name, v, v)
 
     def diagonal(self, name: str, n: int):
         """A diagonal ``n x n`` matrix variable (e.g. Ifqir 2017's diagonal P)."""
+        n = _positive_int(self.name, f"diagonal variable {name!r}: n", n)
         d = cp.Variable(n, name=name)
         return self._add(name, cp.diag(d), d)
 
     def matrix(self, name: str, shape: tuple[int, int]):
+        """A general ``shape = (rows, columns)`` matrix variable (e.g. a gain ``K``)."""
+        if not (isinstance(shape, (tuple, list)) and len(shape) == 2):
+            raise ObserverArgumentError(f"{self.name}: matrix variable {name!r}: shape must be "
+                                        f"(rows, columns), got {shape!r}")
+        shape = tuple(_positive_int(self.name, f"matrix variable {name!r}: shape entry", k)
+                      for k in shape)
         v = cp.Variable(shape, name=name)
         return self._add(name, v, v)
 
@@ -276,19 +346,36 @@ class LMIDesign:
 
     def fixed(self, name: str, value):
         """A constant that builders read like a variable (kept in the solution)."""
-        v = np.asarray(value, dtype=float)
+        try:
+            v = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ObserverArgumentError(f"{self.name}: constant {name!r} must be numeric, got "
+                                        f"{type(value).__name__}") from None
+        if name in self._vars:
+            raise ObserverArgumentError(f"variable {name!r} defined twice in design "
+                                        f"{self.name!r}")
+        if v.ndim > 2 or v.size == 0:
+            raise ObserverArgumentError(f"{self.name}: constant {name!r} has shape {v.shape}; "
+                                        "expected a scalar, vector or non-empty matrix")
         self._vars[name] = v
         self._raw[name] = None
         return v
 
     # ---- constraints -------------------------------------------------------------------
+    def _constraint(self, name, kind, builder):
+        if not callable(builder):
+            raise ObserverArgumentError(f"{self.name}: constraint {name!r}: builder must be a "
+                                        f"function of the variables, got "
+                                        f"{type(builder).__name__}")
+        self._cons.append((name, kind, builder))
+
     def negative(self, name: str, builder: Builder):
-        """Require ``builder(V) < 0`` (negative definite)."""
-        self._cons.append((name, "neg", builder))
+        """Require ``builder(V) < 0`` (negative definite; a square matrix)."""
+        self._constraint(name, "neg", builder)
 
     def positive(self, name: str, builder: Builder):
-        """Require ``builder(V) > 0`` (positive definite)."""
-        self._cons.append((name, "pos", builder))
+        """Require ``builder(V) > 0`` (positive definite; a square matrix)."""
+        self._constraint(name, "pos", builder)
 
     def nonnegative(self, name: str, builder: Builder, margin: float = 0.0):
         """Require every entry of ``builder(V)`` to be >= 0 (e.g. a Metzler off-diagonal).
@@ -296,7 +383,10 @@ class LMIDesign:
         ``margin`` > 0 asks the solver for entries >= margin, so its round-off (~1e-12)
         cannot fail the certificate, which still checks >= 0 on the recomputed matrix.
         """
-        self._cons.append((name, "nonneg", builder))
+        if not (np.isfinite(margin) and margin >= 0):
+            raise ObserverArgumentError(f"{self.name}: constraint {name!r}: margin must be a "
+                                        f"finite number >= 0, got {margin!r}")
+        self._constraint(name, "nonneg", builder)
         self._margins[name] = float(margin)
 
     def extra(self, fn: Callable):
@@ -312,7 +402,7 @@ class LMIDesign:
         V = Values(self._vars)
         out = []
         for name, kind, b in self._cons:
-            M = b(V)
+            M = self._build(name, kind, b, V)
             _check_finite(self.name, name, M)
             if kind == "nonneg":
                 out.append(M >= self._margins.get(name, 0.0))
@@ -326,10 +416,29 @@ class LMIDesign:
             out.extend(fn(V))
         return out
 
+    def _build(self, name, kind, b, V):
+        """``b(V)`` with its shape checked; a builder that fails on mismatched shapes (numpy's
+        or cvxpy's broadcast error) is reported naming the constraint."""
+        try:
+            M = b(V)
+        except (ValueError, IndexError) as exc:
+            if isinstance(exc, ObserverArgumentError):
+                raise
+            raise ObserverArgumentError(f"{self.name}: constraint {name!r} cannot be built: "
+                                        f"{str(exc).splitlines()[0] if str(exc) else exc!r} "
+                                        "(check the shapes of its variables and constants)"
+                                        ) from None
+        except _MissingVariable as exc:
+            raise ObserverArgumentError(f"{self.name}: constraint {name!r} reads variable "
+                                        f"{exc.args[0]!r}, which is not defined") from None
+        _check_shape(self.name, name, M, kind)
+        return M
+
     def certify(self, values: dict) -> Certificate:
         """Recompute every constraint from numeric ``values`` and check its eigenvalues."""
         V = Values(values)
-        return Certificate([check_matrix(name, b(V), kind) for name, kind, b in self._cons])
+        return Certificate([check_matrix(name, self._build(name, kind, b, V), kind)
+                            for name, kind, b in self._cons])
 
     def solve(self, objective: Callable | None = None, solver: str = "CLARABEL",
               raise_on_failure: bool = True, **solver_kw) -> LMISolution:
@@ -385,6 +494,21 @@ class Region:
     L: np.ndarray
     M: np.ndarray
 
+    def __post_init__(self):
+        L = np.atleast_2d(np.asarray(self.L, dtype=float))
+        M = np.atleast_2d(np.asarray(self.M, dtype=float))
+        for arg, X in (("L", L), ("M", M)):
+            if X.ndim != 2 or X.shape[0] != X.shape[1] or not np.all(np.isfinite(X)):
+                raise ObserverArgumentError(f"Region {self.name!r}: {arg} must be a finite "
+                                            f"square matrix, got shape {X.shape}")
+        if L.shape != M.shape:
+            raise ObserverArgumentError(f"Region {self.name!r}: L {L.shape} and M {M.shape} "
+                                        "must have the same shape")
+        if not np.allclose(L, L.T):
+            raise ObserverArgumentError(f"Region {self.name!r}: L must be symmetric")
+        object.__setattr__(self, "L", L)
+        object.__setattr__(self, "M", M)
+
     def lmi(self, P, PA):
         """Characteristic matrix ``L (x) P + M (x) PA + M^T (x) PA^T`` (must be < 0)."""
         return kron(self.L, P) + kron(self.M, PA) + kron(self.M.T, transpose(PA))
@@ -392,6 +516,9 @@ class Region:
     def contains(self, z) -> np.ndarray:
         """Point-wise membership test of complex numbers ``z`` (strict)."""
         z = np.atleast_1d(np.asarray(z, dtype=complex))
+        if not np.all(np.isfinite(z)):
+            raise ObserverArgumentError(f"Region {self.name!r}.contains: z must be finite, got "
+                                        f"{z[~np.isfinite(z)][0]}")
         out = np.empty(z.shape, dtype=bool)
         for k, zk in enumerate(z):
             F = self.L + self.M * zk + self.M.T * np.conj(zk)
@@ -399,14 +526,28 @@ class Region:
         return out
 
 
+def _finite(fn: str, arg: str, v, positive=False) -> float:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        raise ObserverArgumentError(f"{fn}: {arg} must be a number, got {v!r}") from None
+    if not np.isfinite(v) or (positive and v <= 0):
+        raise ObserverArgumentError(f"{fn}: {arg} must be a finite number"
+                                    f"{' > 0' if positive else ''}, got {v!r}")
+    return v
+
+
 def halfplane(a: float) -> Region:
     """``Re(z) < -a``: ``2 a P + P A + A^T P < 0`` (Ichalal 2011 eq. (35))."""
+    a = _finite("halfplane", "a", a)
     return Region(f"Re(z) < -{a:g}", np.array([[2.0 * a]]), np.array([[1.0]]))
 
 
 def disk(R: float, center: float = 0.0) -> Region:
     """``|z - center| < R`` (Ichalal 2011 eq. (36) with center 0):
     ``[[-R P, q P + P A], [q P + A^T P, -R P]] < 0``."""
+    R = _finite("disk", "R (radius)", R, positive=True)
+    center = _finite("disk", "center", center)
     q = -center
     return Region(f"|z{'' if center == 0 else f' - {center:g}'}| < {R:g}",
                   np.array([[-R, q], [q, -R]], dtype=float),
@@ -414,7 +555,11 @@ def disk(R: float, center: float = 0.0) -> Region:
 
 
 def sector(theta: float) -> Region:
-    """Conic sector ``|Im z| < -Re(z) tan(theta)``, i.e. damping ratio > cos(theta)."""
+    """Conic sector ``|Im z| < -Re(z) tan(theta)``, i.e. damping ratio > cos(theta);
+    ``0 < theta < pi/2`` [rad]."""
+    theta = _finite("sector", "theta", theta)
+    if not 0 < theta < np.pi / 2:
+        raise ObserverArgumentError(f"sector: theta must be in (0, pi/2) rad, got {theta!r}")
     s, c = np.sin(theta), np.cos(theta)
     return Region(f"sector {np.degrees(theta):.1f} deg",
                   np.zeros((2, 2)), np.array([[s, c], [-c, s]]))

@@ -26,6 +26,7 @@ actuator/sensor fault, a different problem from estimating ``v_y`` on a variable
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -46,15 +47,77 @@ def _noise_std(x):
     return float(np.std(np.diff(np.asarray(x, float))) / np.sqrt(2.0))
 
 
+# ------------------------------------------------------------------ design cache --------
+# A certified LMI design takes 0.5-8 s (cvxpy + Clarabel); the command line keeps it on disk
+# like the Kalman tuning (:func:`kalman_runs.cache_dir`), keyed by everything the design
+# reads (the vehicle constants and tyres, the [uncertainty] box, the sample period, the
+# design's options) and the source of the modules that compute it and the solver versions,
+# so an edited design or solver never reuses an old entry.
+
+
+def _design_key(kind: str, vehicle, dt, *modules) -> str:
+    import hashlib
+    from importlib.metadata import PackageNotFoundError, version
+
+    h = hashlib.sha256()
+    h.update(repr((kind, vehicle.params.as_array().tolist(),
+                   type(vehicle.params.tire_f).__name__, type(vehicle.params.tire_r).__name__,
+                   sorted(vehicle.uncertainty.items()), None if dt is None else round(dt, 9),
+                   ACCEL_MAX)).encode())
+    for pkg in ("cvxpy", "clarabel", "numpy"):
+        try:
+            h.update(f"{pkg}={version(pkg)}".encode())
+        except PackageNotFoundError:
+            h.update(pkg.encode())
+    for m in (__file__, *modules):
+        h.update(Path(m).read_bytes())
+    return h.hexdigest()
+
+
+def _disk_design(kind, key_args, build, cache: bool):
+    """``build() -> design`` through the on-disk cache when ``cache`` (a pickle in
+    :func:`kalman_runs.cache_dir`, written atomically; an unreadable or stale entry is
+    rebuilt, an unwritable folder skipped; a design holding functions, e.g. the TS model's
+    premises, is not kept). Returns (design, seconds spent now)."""
+    import pickle
+
+    t0 = time.perf_counter()
+    if not cache:
+        return build(), time.perf_counter() - t0
+    f = kalman_runs.cache_dir() / f"design-{kind}-{_design_key(kind, *key_args)}.pkl"
+    try:
+        des = pickle.loads(f.read_bytes())
+        return des, time.perf_counter() - t0
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError,
+            TypeError, ValueError):
+        pass
+    des = build()
+    try:
+        data = pickle.dumps(des, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return des, time.perf_counter() - t0         # holds functions: not kept on disk
+    try:
+        f.parent.mkdir(parents=True, exist_ok=True)
+        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, f)
+    except OSError:
+        pass
+    return des, time.perf_counter() - t0
+
+
 # ------------------------------------------------------------------ Yacine 2015 TS -------
 # The observer modules import cvxpy (~1 s): they are imported when an observer runs, not
 # when the registry is listed, so ``estimate --observer ekf`` does not pay for them.
 
 
-def ts_design(vehicle):
-    """Theorem 1 design for ``vehicle`` (cached per vehicle). Returns (design, seconds of
-    the LMI solve; the first solve's time is returned for cached designs)."""
-    from vehicle_observers.models.lateral import yacine_ts as _yacine_ts
+def ts_design(vehicle, cache: bool = False):
+    """Theorem 1 design for ``vehicle`` (cached per vehicle in the process; ``cache=True``
+    also on disk, :func:`_disk_design`). Returns (design, seconds of the LMI solve or of
+    reading the disk cache; the first solve's time is returned for designs cached in the
+    process)."""
+    from vehicle_observers.design import lmi as _lmi
+    from vehicle_observers.models import lateral as _lat
     from vehicle_observers.observers import ts_premise as _to
 
     key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())))
@@ -64,11 +127,14 @@ def ts_design(vehicle):
                                                 purpose="observer 'ts-yacine2015'")
     p = vehicle.params
     a = np.radians(amax)
-    ts = _yacine_ts(p, Mf=p.tire_f.sector_bounds(a), Mr=p.tire_r.sector_bounds(a),
-                    vx_bounds=(vmin, vmax))
-    t0 = time.perf_counter()
-    des = _to.design_theorem1(ts, alpha=1e-3)
-    sec = time.perf_counter() - t0
+
+    def build():
+        ts = _lat.yacine_ts(p, Mf=p.tire_f.sector_bounds(a), Mr=p.tire_r.sector_bounds(a),
+                            vx_bounds=(vmin, vmax))
+        return _to.design_theorem1(ts, alpha=1e-3)
+
+    des, sec = _disk_design("ts", (vehicle, None, _to.__file__, _lmi.__file__, _lat.__file__),
+                            build, cache)
     _TS_CACHE[key] = (des, sec)
     return des, sec
 
@@ -76,7 +142,7 @@ def ts_design(vehicle):
 _TS_CACHE: dict = {}
 
 
-def _run_ts(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+def _run_ts(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, cache=False, **_):
     from vehicle_observers.models.tires import Pacejka
 
     for axle, tyre in (("tire_front", vehicle.params.tire_f), ("tire_rear", vehicle.params.tire_r)):
@@ -86,7 +152,7 @@ def _run_ts(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
                                    "sectors; observer 'ts-yacine2015' needs Pacejka tyres")
     from vehicle_observers.observers import ts_premise as _to
 
-    des, sec = ts_design(vehicle)
+    des, sec = ts_design(vehicle, cache)
     info = {"clipped": 0}
 
     def one(sub, a):
@@ -140,8 +206,10 @@ ACCEL_MAX = 12.0  # m/s^2
 _IV_CACHE: dict = {}
 
 
-def interval_design(vehicle, dt: float):
-    """Theorem 2 design for ``vehicle`` at sample period ``dt``. Returns (design, seconds)."""
+def interval_design(vehicle, dt: float, cache: bool = False):
+    """Theorem 2 design for ``vehicle`` at sample period ``dt`` (``cache=True``: also on
+    disk, :func:`_disk_design`). Returns (design, seconds)."""
+    from vehicle_observers.design import lmi as _lmi
     from vehicle_observers.models import uncertain_bicycle as _ub
     from vehicle_observers.observers import interval as _iv
 
@@ -151,14 +219,17 @@ def interval_design(vehicle, dt: float):
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-ifqir2017'")
     p = vehicle.params
-    veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
-                               c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
-    bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
-    model = _ub.SwitchedIntervalModel(veh, bands)
-    t0 = time.perf_counter()
-    des = _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
-                              accel_max=ACCEL_MAX, p_min=1.0)
-    sec = time.perf_counter() - t0
+
+    def build():
+        veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+                                   c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
+        bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+        model = _ub.SwitchedIntervalModel(veh, bands)
+        return _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
+                                   accel_max=ACCEL_MAX, p_min=1.0)
+
+    des, sec = _disk_design("ifqir2017", (vehicle, dt, _iv.__file__, _ub.__file__, _lmi.__file__),
+                            build, cache)
     _IV_CACHE[key] = (des, sec)
     return des, sec
 
@@ -224,8 +295,8 @@ def _interval_stretches(des, log, vehicle, max_gap, progress, run=None):
     return cols, wall, n, y_noise, d_noise
 
 
-def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
-    des, sec = interval_design(vehicle, log.dt)
+def _run_interval(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, cache=False, **_):
+    des, sec = interval_design(vehicle, log.dt, cache)
     cols, wall, n, y_noise, d_noise = _interval_stretches(des, log, vehicle, max_gap, progress)
     edges = des.model.bands.edges
     moving = ~cols["low_speed"]
@@ -257,9 +328,12 @@ register(EstimatorSpec(
 # smallest certified gamma.
 
 
-def coordinate_interval_design(vehicle, dt: float):
-    """Certified design in ``z = T x`` for ``vehicle`` at ``dt``. Returns (design, seconds)."""
+def coordinate_interval_design(vehicle, dt: float, cache: bool = False):
+    """Certified design in ``z = T x`` for ``vehicle`` at ``dt`` (``cache=True``: also on
+    disk, :func:`_disk_design`). Returns (design, seconds)."""
+    from vehicle_observers.design import lmi as _lmi
     from vehicle_observers.models import uncertain_bicycle as _ub
+    from vehicle_observers.observers import interval as _iv
     from vehicle_observers.observers import interval_coordinates as _ic
 
     key = ("coordinates", vehicle.params, tuple(sorted(vehicle.uncertainty.items())),
@@ -269,19 +343,23 @@ def coordinate_interval_design(vehicle, dt: float):
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-coordinates'")
     p = vehicle.params
-    veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
-                               c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
-    bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
-    t0 = time.perf_counter()
-    des = _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
-    _IV_CACHE[key] = (des, time.perf_counter() - t0)
+
+    def build():
+        veh = _ub.UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=vehicle.C_f,
+                                   c_r0=vehicle.C_r, rel_unc=rel, name=vehicle.name)
+        bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
+        return _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
+
+    _IV_CACHE[key] = _disk_design("coordinates", (vehicle, dt, _ic.__file__, _iv.__file__,
+                                                  _ub.__file__, _lmi.__file__), build, cache)
     return _IV_CACHE[key]
 
 
-def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None,
+                              cache=False, **_):
     from vehicle_observers.observers import interval_coordinates as _ic
 
-    cd, sec = coordinate_interval_design(vehicle, log.dt)
+    cd, sec = coordinate_interval_design(vehicle, log.dt, cache)
     cols, wall, n, y_noise, d_noise = _interval_stretches(cd, log, vehicle, max_gap, progress,
                                                           run=_ic.run)
     d = cd.design

@@ -1,4 +1,5 @@
-"""The Kalman family on drive logs: EKF (numba and filterpy), UKF and the RTS smoother of
+"""The Kalman family on drive logs: EKF (numba and filterpy), UKF (numba,
+:mod:`vehicle_observers.baselines.ukf`, and filterpy) and the RTS smoother of
 :mod:`vehicle_observers.baselines.kalman`, with their noise tuning (the vehicle file's
 ``[kalman]`` table, or maximum likelihood of the measured channels' innovations, cached).
 """
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from vehicle_observers.baselines import kalman
+from vehicle_observers.baselines.ukf import ukf as ukf_numba
 from vehicle_observers.core.errors import LogFormatError
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
@@ -77,12 +79,12 @@ def kalman_tuning(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WI
 
 
 def cache_dir() -> Path:
-    """Folder of the ML-tuning cache: ``$VEHICLE_OBSERVERS_CACHE`` or
-    ``$XDG_CACHE_HOME/vehicle_observers`` (default ``~/.cache/vehicle_observers``)."""
-    d = os.environ.get("VEHICLE_OBSERVERS_CACHE")
-    if d:
-        return Path(d)
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "vehicle_observers"
+    """Folder of the ML-tuning and design caches: ``$VEHICLE_OBSERVERS_CACHE`` or
+    ``$XDG_CACHE_HOME/vehicle_observers`` (default ``~/.cache/vehicle_observers``;
+    :func:`vehicle_observers.data.logs.cache_dir`)."""
+    from vehicle_observers.data.logs import cache_dir as _cache_dir
+
+    return _cache_dir()
 
 
 def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
@@ -111,7 +113,7 @@ def _cache_put(key, tun: KalmanTuning):
     f = cache_dir() / f"tuning-{key}.json"
     try:
         f.parent.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_name(f"{f.name}.partial-{os.getpid()}")
+        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
         tmp.write_text(json.dumps({"theta": tun.theta().tolist(), "P0": list(tun.P0),
                                    "source": tun.source}))
         os.replace(tmp, f)
@@ -185,8 +187,12 @@ register(EstimatorSpec("ekf", "EKF, numba (" + _KF_DOC + ")", _kalman_runner(kal
 register(EstimatorSpec("ekf-filterpy", "the same EKF with filterpy (slow reference)",
                       _kalman_runner(kalman.ekf_filterpy, "ekf-filterpy"),
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
-register(EstimatorSpec("ukf", "UKF, filterpy Merwe sigma points, P kept SPD (same model/noise)",
-                      _kalman_runner(kalman.ukf_filterpy, "ukf"),
+register(EstimatorSpec("ukf", "UKF, numba (Merwe sigma points, P kept SPD; the same filter "
+                      "as ukf-filterpy to round-off, same model/noise as the EKF)",
+                      _kalman_runner(ukf_numba, "ukf"),
+                      optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
+register(EstimatorSpec("ukf-filterpy", "the same UKF with filterpy (slow reference)",
+                      _kalman_runner(kalman.ukf_filterpy, "ukf-filterpy"),
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
 register(EstimatorSpec("rts", "extended RTS smoother (OFFLINE, non-causal reference) on the EKF",
                       _kalman_runner(kalman.rts, "rts", causal=False),

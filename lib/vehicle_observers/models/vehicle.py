@@ -37,6 +37,7 @@ vehicle (:data:`RANGES`, e.g. ``m`` in [50, 1e5] kg, ``I_z`` in [10, 1e6] kg m^2
 from __future__ import annotations
 
 import math
+import stat
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -206,6 +207,10 @@ def _tyre(doc, sect, fname):
                            f"got {model!r}")
 
 
+#: largest vehicle file read [bytes] (a vehicle file is a few hundred bytes)
+MAX_FILE_BYTES = 1 << 20
+
+
 def load_vehicle(path) -> Vehicle:
     """Read and validate a vehicle TOML file (or a built-in name such as ``"revs250lm"``)."""
     p = Path(path)
@@ -215,6 +220,16 @@ def load_vehicle(path) -> Vehicle:
     if not p.exists():
         raise VehicleFileError(f"{p}: no such vehicle file (built-in: "
                                f"{', '.join(sorted(builtin_vehicles()))})")
+    mode = p.stat().st_mode
+    if not stat.S_ISREG(mode):
+        what = ("a directory" if stat.S_ISDIR(mode) else "a FIFO (named pipe)"
+                if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "not a regular file")
+        raise VehicleFileError(f"{p}: is {what}, expected a vehicle TOML file (a pipe or device "
+                               "is not read: it could block forever)")
+    if p.stat().st_size > MAX_FILE_BYTES:
+        raise VehicleFileError(f"{fname}: {p.stat().st_size} bytes, not a vehicle file (at most "
+                               f"{MAX_FILE_BYTES} bytes)")
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as exc:
