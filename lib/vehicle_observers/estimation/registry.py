@@ -147,7 +147,7 @@ def register_observer(name: str, build: Callable, description: str = "", *,
         info = {"design": obs.design}
 
         def one(sub, a):
-            cols = sub.columns
+            cols = sub.columns()
             u = np.column_stack([cols[c] for c in obs.input_names])
             y = np.column_stack([cols[c] for c in obs.output_names])
             tr = obs.run(sub.t, u, y)
