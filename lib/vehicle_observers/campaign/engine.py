@@ -111,7 +111,8 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
     n_workers = 1
     try:
         if engine == "serial":
-            tasks.warm_up(spec.plugins)
+            if pending:
+                tasks.warm_up(spec.plugins)
             for bid, a, b in pending:
                 save("results", bid, tasks.run_batch(spec.raw, bid, a, b))
             for bid, a, b in lpending:

@@ -209,7 +209,8 @@ class LinearKalman(ObserverBase):
         R = np.diag(self.theta[3:5])
         e = y[k] - (H @ x + D * u[k, 1])
         S = H @ P @ H.T + R
-        K = P @ H.T @ np.linalg.inv(S)
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        K = P @ H.T @ (np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det)
         x = x + K @ e
         IKH = np.eye(3) - K @ H
         return x, IKH @ P @ IKH.T + K @ R @ K.T
@@ -245,48 +246,92 @@ class LinearKalman(ObserverBase):
 
 
 @njit(cache=True)
-def _lkf_update(x, P, vx, d, yk, c, theta):
-    m, af, ar, Cf, Cr = c[0], c[2], c[3], c[4], c[5]
-    H = np.array([[0.0, 1.0, 0.0], [-(Cf + Cr) / (m * vx), -(af * Cf - ar * Cr) / (m * vx), 1.0]])
-    R = np.array([[theta[3], 0.0], [0.0, theta[4]]])
-    e = np.empty(2)
-    hx = _mv(H, x)
-    e[0] = yk[0] - (hx[0] + 0.0 * d)
-    e[1] = yk[1] - (hx[1] + Cf / m * d)
-    S = _mm(_mm(H, P), H.T.copy())
-    S[0, 0] += R[0, 0]
-    S[0, 1] += R[0, 1]
-    S[1, 0] += R[1, 0]
-    S[1, 1] += R[1, 1]
-    Si = np.linalg.inv(S)
-    K = _mm(_mm(P, H.T.copy()), Si)
-    x = x + _mv(K, e)
-    IKH = np.eye(3) - _mm(K, H)
-    P = _mm(_mm(IKH, P), IKH.T.copy()) + _mm(_mm(K, R), K.T.copy())
-    return x, P
+def _mm_into(X, Y, out):
+    """``out = X @ Y`` (small matrices, summation left to right, no allocation)."""
+    for i in range(X.shape[0]):
+        for j in range(Y.shape[1]):
+            s = 0.0
+            for q in range(X.shape[1]):
+                s += X[i, q] * Y[q, j]
+            out[i, j] = s
+
+
+@njit(cache=True)
+def _mmt_into(X, Y, out):
+    """``out = X @ Y.T`` (no allocation)."""
+    for i in range(X.shape[0]):
+        for j in range(Y.shape[0]):
+            s = 0.0
+            for q in range(X.shape[1]):
+                s += X[i, q] * Y[j, q]
+            out[i, j] = s
 
 
 @njit(cache=True)
 def _lkf(t, u, y, z0, c, theta):
+    """Compiled :meth:`LinearKalman.step` loop (same operations; work arrays allocated once;
+    the 2x2 innovation covariance inverted in closed form)."""
     N = t.shape[0]
     X = np.empty((N, 3))
     x = z0[:3].copy()
-    P = np.ascontiguousarray(z0[3:]).reshape(3, 3)
+    P = np.ascontiguousarray(z0[3:]).reshape(3, 3).copy()
     X[0] = x
-    Q = np.array([theta[0], theta[1], theta[2]])
+    m, af, ar, Cf, Cr = c[0], c[2], c[3], c[4], c[5]
+    F = np.eye(3)
+    H = np.zeros((2, 3))
+    H[0, 1] = 1.0
+    H[1, 2] = 1.0
+    T3 = np.empty((3, 3))
+    T32 = np.empty((3, 2))
+    T23 = np.empty((2, 3))
+    S = np.empty((2, 2))
+    Si = np.empty((2, 2))
+    K = np.empty((3, 2))
+    KR = np.empty((3, 2))
+    IKH = np.empty((3, 3))
+    e = np.empty(2)
+    xp = np.empty(3)
     for k in range(1, N):
         h = t[k] - t[k - 1]
         Phi, G0, G1 = _discretise(c, u[k - 1, 0], h)
-        F = np.eye(3)
         F[0, 0], F[0, 1], F[1, 0], F[1, 1] = Phi[0, 0], Phi[0, 1], Phi[1, 0], Phi[1, 1]
         d = u[k - 1, 1]
-        xp = _mv(F, x)
+        for i in range(3):
+            xp[i] = F[i, 0] * x[0] + F[i, 1] * x[1] + F[i, 2] * x[2]
         xp[0] += G0 * d
         xp[1] += G1 * d
-        P = _mm(_mm(F, P), F.T.copy())
+        _mm_into(F, P, T3)
+        _mmt_into(T3, F, P)
         for i in range(3):
-            P[i, i] += Q[i] * h
-        x, P = _lkf_update(xp, P, u[k, 0], u[k, 1], y[k], c, theta)
+            P[i, i] += theta[i] * h
+        # ---- update with y_k
+        vx, dk = u[k, 0], u[k, 1]
+        H[1, 0] = -(Cf + Cr) / (m * vx)
+        H[1, 1] = -(af * Cf - ar * Cr) / (m * vx)
+        e[0] = y[k, 0] - ((H[0, 0] * xp[0] + H[0, 1] * xp[1] + H[0, 2] * xp[2]) + 0.0 * dk)
+        e[1] = y[k, 1] - ((H[1, 0] * xp[0] + H[1, 1] * xp[1] + H[1, 2] * xp[2]) + Cf / m * dk)
+        _mm_into(H, P, T23)
+        _mmt_into(T23, H, S)
+        S[0, 0] += theta[3]
+        S[1, 1] += theta[4]
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        Si[0, 0], Si[0, 1] = S[1, 1] / det, -S[0, 1] / det
+        Si[1, 0], Si[1, 1] = -S[1, 0] / det, S[0, 0] / det
+        _mmt_into(P, H, T32)
+        _mm_into(T32, Si, K)
+        for i in range(3):
+            x[i] = xp[i] + (K[i, 0] * e[0] + K[i, 1] * e[1])
+        _mm_into(K, H, IKH)
+        for i in range(3):
+            for j in range(3):
+                IKH[i, j] = (1.0 if i == j else 0.0) - IKH[i, j]
+        _mm_into(IKH, P, T3)
+        _mmt_into(T3, IKH, P)
+        for i in range(3):
+            KR[i, 0], KR[i, 1] = K[i, 0] * theta[3], K[i, 1] * theta[4]
+        for i in range(3):
+            for j in range(3):
+                P[i, j] += KR[i, 0] * K[j, 0] + KR[i, 1] * K[j, 1]
         X[k] = x
     return X
 

@@ -106,8 +106,12 @@ def _in_box(tr: T.Truth, v: S.Variant, errors: dict) -> bool:
                 and (1 - v.rel) * er <= s["cr_min"] and s["cr_max"] <= (1 + v.rel) * er)
 
 
-def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None) -> dict:
-    """One simulation: the row of task ``i`` (see :func:`result_schema`)."""
+def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
+             estimators: dict | None = None) -> dict:
+    """One simulation: the row of task ``i`` (see :func:`result_schema`). ``truths``:
+    truth key -> :class:`~vehicle_observers.campaign.truths.Truth` (else simulated here);
+    ``estimators``: the registry (:func:`~vehicle_observers.estimation.registry.available`
+    reads the plug-in entry points on every call: give it once per batch)."""
     from vehicle_observers.estimation import registry, scoring
 
     tk = spec.task(i)
@@ -145,7 +149,8 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None) ->
             inb and tk.plant == "lpv" and sens["distribution"] == "uniform"
             and not any(bias.values()) and (tk.noise == 0.0 or sens["std"]["vx"] == 0.0)
             and lo <= float(np.min(tr.vx)) and float(np.max(tr.vx)) <= hi)
-        est = registry.get(tk.estimator).estimate(log, veh)
+        avail = estimators if estimators is not None else registry.available(spec.plugins)
+        est = avail[tk.estimator].estimate(log, veh)
         bad = [n for n, c in est.columns.items() if not np.all(np.isfinite(c))]
         if bad:
             k = int(np.argmax(~np.isfinite(est.columns[bad[0]])))
@@ -166,11 +171,14 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None) ->
 def run_batch(raw: dict, batch_id: int, start: int, stop: int, truths=None) -> dict:
     """Dask task: rows of tasks ``start..stop-1`` as columns (lists, :func:`result_schema`
     order). ``truths``: ``[Truth, ...]`` computed elsewhere (else simulated here)."""
+    from vehicle_observers.estimation import registry
+
     spec = spec_of(raw)
     tmap = None if truths is None else {t.key: t for t in truths}
+    avail = registry.available(spec.plugins)
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
-        rows = [run_task(spec, i, batch_id, tmap) for i in range(start, stop)]
+        rows = [run_task(spec, i, batch_id, tmap, avail) for i in range(start, stop)]
     names = result_schema().names
     return {n: [r[n] for r in rows] for n in names}
 
