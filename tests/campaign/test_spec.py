@@ -140,7 +140,9 @@ def test_auto_batch_size_keeps_large_campaigns_at_a_few_thousand_tasks():
     d.pop("batch_size")
     s = load_spec(d)
     assert s.n_tasks == 640_000 and len(s.batches()) <= 2000 and s.batch_size == 320
-    d["repetitions"] = 1                     # 32 simulations: still 2 per task
+    d["repetitions"] = 200                   # 6400 simulations: 64 per task
+    assert load_spec(d).batch_size == 64
+    d["repetitions"] = 1                     # 32 simulations: one per task
     assert load_spec(d).batch_size == 1
 
 
@@ -180,3 +182,13 @@ def test_sampled_errors_are_keyed_per_draw():
         assert -0.1 <= e["mass"] <= 0.1 and -0.3 <= e["friction"] <= 0.0
         assert all(e[k] == 0.0 for k in ERROR_KEYS if k not in ("mass", "friction"))
     assert len({v.errors for v in b}) == 5
+
+
+def test_an_estimator_restricted_to_some_plants():
+    d = _with("estimators", ["ekf", {"name": "interval-ifqir2017", "plants": ["lpv:yacine2015"]}])
+    s = load_spec(d)
+    assert [(p, c) for e, p, c in s.pairs if e == "interval-ifqir2017"] == [("lpv", "yacine2015")]
+    assert len([1 for e, _, _ in s.pairs if e == "ekf"]) == 2
+    d["estimators"][1]["plants"] = ["lpv:vw_vanagon"]
+    with pytest.raises(SpecError, match="names 'lpv:vw_vanagon', not one of truth.plants"):
+        load_spec(d)

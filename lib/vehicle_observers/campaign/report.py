@@ -119,8 +119,8 @@ def error_table(df, design: str) -> list[dict]:
 
 
 def conservatism_table(df) -> list[dict]:
-    """Interval observers: one row per (estimator, plant, box speed range, box half-width,
-    front / rear stiffness error), other errors zero (module docstring)."""
+    """Interval observers: one row per (estimator, plant, car, box speed range, box
+    half-width, front / rear stiffness error), other errors zero (module docstring)."""
     import polars as pl
 
     iv = df.filter(pl.col("enclosure_vy").is_not_nan() | ~pl.col("ok"))
@@ -131,7 +131,7 @@ def conservatism_table(df) -> list[dict]:
     iv = iv.filter(others).with_columns(
         ((1 + pl.col("err_stiffness")) * (1 + pl.col("err_stiffness_front")) - 1).alias("err_cf"),
         ((1 + pl.col("err_stiffness")) * (1 + pl.col("err_stiffness_rear")) - 1).alias("err_cr"))
-    keys = ["estimator", "plant", "box_vx_min", "box_vx_max", "box_rel", "err_cf", "err_cr"]
+    keys = ["estimator", "plant", "car", "box_vx_min", "box_vx_max", "box_rel", "err_cf", "err_cr"]
     out = []
     for g in iv.partition_by(keys, maintain_order=True):
         good = g.filter(pl.col("ok"))
@@ -216,7 +216,8 @@ def fig_error_effect(errors: list[dict]):
     nominal = {r["estimator"]: r for r in errors if r["parameter"] == "nominal"}
     n = max(len(params), 1)
     cols = min(n, 4)
-    fig, axes = plt.subplots(-(-n // cols), cols, figsize=(3.2 * cols, 2.8 * -(-n // cols)),
+    fig, axes = plt.subplots(-(-n // cols), cols, figsize=(max(3.2 * cols, 6.5),
+                                                           2.8 * -(-n // cols) + 0.4),
                              squeeze=False, sharey=True)
     ests = list(dict.fromkeys(r["estimator"] for r in errors))
     colours = {e: f"C{i % 10}" for i, e in enumerate(ests)}
@@ -236,7 +237,8 @@ def fig_error_effect(errors: list[dict]):
         ax.set_visible(False)
     axes[0, 0].set_ylabel(r"$v_y$ RMSE [m/s]")
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle(r"$v_y$ RMSE against the vehicle file's errors (median solid, 90th percentile dashed)")
+    fig.suptitle(r"$v_y$ RMSE vs vehicle-file errors: median (solid), 90th percentile (dashed)",
+                 fontsize=9)
     return fig
 
 
@@ -245,11 +247,11 @@ def fig_conservatism(cons: list[dict]):
     observer over the stiffness error (columns) and the box's speed range (rows)."""
     import matplotlib.pyplot as plt
 
-    ests = list(dict.fromkeys((r["estimator"], r["plant"]) for r in cons))
+    ests = list(dict.fromkeys((r["estimator"], f"{r['plant']}:{r['car']}") for r in cons))
     fig, axes = plt.subplots(2, max(len(ests), 1), figsize=(4.2 * max(len(ests), 1), 5.6),
                              squeeze=False)
     for c, (e, pl_) in enumerate(ests):
-        rs = [r for r in cons if r["estimator"] == e and r["plant"] == pl_]
+        rs = [r for r in cons if r["estimator"] == e and f"{r['plant']}:{r['car']}" == pl_]
         xs = sorted({r["err_cf"] for r in rs})
         ys = sorted({(r["box_vx_min"], r["box_vx_max"], r["box_rel"]) for r in rs})
         for row, (key, title, cmap) in enumerate((("enclosure_mean", "enclosure", "RdYlGn"),
@@ -267,7 +269,8 @@ def fig_conservatism(cons: list[dict]):
                           fontsize=7)
             for (i, j), z in np.ndenumerate(Z):
                 if np.isfinite(z):
-                    ax.text(j, i, f"{z:.2f}", ha="center", va="center", fontsize=7)
+                    ax.text(j, i, f"{z:.2f}", ha="center", va="center", fontsize=7,
+                            bbox={"fc": "white", "alpha": 0.6, "lw": 0, "pad": 1})
             ax.set_title(f"{e} on {pl_}: {title}", fontsize=8)
             ax.set_xlabel("stiffness error of the vehicle file [%]")
             fig.colorbar(im, ax=ax, shrink=0.8)

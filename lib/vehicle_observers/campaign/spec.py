@@ -9,10 +9,12 @@ truth is known, with the *observer's* vehicle file perturbed, and scores each ru
     name = "robustness"
     seed = 0                  # campaign seed: every random draw derives from it (see below)
     repetitions = 2           # seeded repetitions of every noisy log
-    estimators = ["ekf", "interval-coordinates"]   # registry names, or "all"
+    estimators = ["ekf", {name = "interval-coordinates", plants = ["lpv:bmw_320i"]}]
+                              # registry names (a table: on those plants only), or "all"
     references = ["open-loop-linear", "linear-kf"] # always run too (ratios of the report)
     plugins = []              # modules registering more estimators (imported on the workers)
-    batch_size = "auto"       # simulations per Dask task, or an integer
+    batch_size = "auto"       # simulations per Dask task (auto: 64, fewer below 4096
+                              # simulations, more above 128000: at most 2000 tasks)
 
     [truth]
     plants = ["multibody:bmw_320i", "lpv:bmw_320i", "yaw-drift:yacine2015"]
@@ -105,10 +107,14 @@ DISTRIBUTIONS = ("gaussian", "uniform")
 DEFAULT_REFERENCES = ("open-loop-linear", "linear-kf")
 #: default speed range of the observer box for the CommonRoad cars [m/s]
 COMMONROAD_SPEED_RANGE = (5.0, 40.0)
-#: simulations per Dask task: at most this many tasks for any campaign size ...
+#: simulations per Dask task (``batch_size = "auto"``): at most this many tasks for any
+#: campaign size ...
 MAX_BATCHES = 2000
-#: ... and at least this many simulations per task (Dask overhead) when there are enough
-MIN_BATCH = 16
+#: ... at least this many simulations per task (a filter run costs about 1-10 ms, a Dask task
+#: a few ms of scheduling, transfer and Parquet writing) ...
+MIN_BATCH = 64
+#: ... unless the campaign would then have fewer tasks than this (parallelism)
+MIN_BATCHES = 64
 
 TOP_KEYS = ("name", "seed", "repetitions", "estimators", "references", "plugins", "batch_size",
             "truth", "observer", "errors", "sensors", "score", "lmi_map")
@@ -368,7 +374,7 @@ class Spec:
         if b != "auto":
             return int(b)
         n = self.n_tasks
-        return max(-(-n // MAX_BATCHES), min(MIN_BATCH, -(-n // 64)), 1)
+        return max(-(-n // MAX_BATCHES), min(MIN_BATCH, -(-n // MIN_BATCHES)), 1)
 
     def batches(self) -> list[tuple[int, int, int]]:
         """``[(batch id, first task, end task), ...]``."""
@@ -463,7 +469,16 @@ def _normalise(doc: dict, where: str) -> dict:
                         f"available: {', '.join(avail)})")
     est = doc["estimators"]
     every = est == "all"
-    names = list(avail) if every else _list(where, "estimators", est)
+    only: dict = {}        # estimator -> the plants it runs on ({name, plants} entries)
+    names = []
+    for e in (list(avail) if every else _list(where, "estimators", est)):
+        if isinstance(e, dict):
+            _unknown(where, e, ("name", "plants"), "estimators.")
+            if "name" not in e or "plants" not in e:
+                _err(where, "estimators", f"a table entry needs name and plants, got {e!r}")
+            only[e["name"]] = _list(where, f"estimators.{e['name']}.plants", e["plants"])
+            e = e["name"]
+        names.append(e)
     refs = doc.get("references", list(DEFAULT_REFERENCES))
     refs = [] if refs == [] else _list(where, "references", refs)
     for n in list(names) + list(refs):
@@ -616,9 +631,15 @@ def _normalise(doc: dict, where: str) -> dict:
 
     # estimator x truth pairs
     pairs = []
+    for n, pls in only.items():
+        for t in pls:
+            if t not in out["truth"]["plants"]:
+                _err(where, f"estimators.{n}.plants", f"names {t!r}, not one of truth.plants")
     for n in names:
         s = avail[n]
         for pl, car in truths:
+            if n in only and f"{pl}:{car}" not in only[n]:
+                continue
             missing = [c for c in s.columns if c not in PLANT_COLUMNS[pl]]
             if missing:
                 if every and n not in refs:

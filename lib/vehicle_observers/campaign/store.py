@@ -89,14 +89,15 @@ def write_batch(out, kind: str, bid: int, columns: dict, schema) -> Path:
     tmp = path.with_name(f"{path.name}.partial-{os.getpid()}")
     table = pa.table({n: pa.array(columns[n], type=schema.field(n).type) for n in schema.names},
                      schema=schema)
-    pq.write_table(table, tmp, compression="zstd")
+    pq.write_table(table, tmp, compression="snappy")
     os.replace(tmp, path)
     return path
 
 
-def read_table(out, kind: str):
+def read_table(out, kind: str, columns=None):
     """Every batch of ``kind`` as one pyarrow table sorted by its index column (``task`` or
-    ``point``); an empty table of the right schema when none is done."""
+    ``point``); an empty table of the right schema when none is done. ``columns``: read only
+    these (the index column is added)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -105,17 +106,20 @@ def read_table(out, kind: str):
     if not files:
         if kind == "results":
             from vehicle_observers.campaign.tasks import result_schema
-            return result_schema().empty_table()
-        from vehicle_observers.campaign.lmi_map import schema
-        return schema().empty_table()
-    t = pa.concat_tables([pq.read_table(f) for f in files])
+            t = result_schema().empty_table()
+        else:
+            from vehicle_observers.campaign.lmi_map import schema
+            t = schema().empty_table()
+        return t if columns is None else t.select(list(columns))
     key = "task" if kind == "results" else "point"
+    cols = None if columns is None else list(dict.fromkeys([key, *columns]))
+    t = pa.concat_tables([pq.read_table(f, columns=cols) for f in files])
     return t.sort_by(key)
 
 
-def read_results(out):
+def read_results(out, columns=None):
     """The simulation rows of a campaign folder (pyarrow table, sorted by ``task``)."""
-    return read_table(out, "results")
+    return read_table(out, "results", columns)
 
 
 def read_lmi(out):

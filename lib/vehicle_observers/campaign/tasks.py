@@ -168,14 +168,27 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     return row
 
 
+_AVAILABLE: dict = {}
+
+
+def estimators_of(plugins, need=()) -> dict:
+    """The registry after loading ``plugins``, read once per process (listing the plug-in
+    entry points costs milliseconds per call) and again when a name in ``need`` is missing
+    (registered since)."""
+    from vehicle_observers.estimation import registry
+
+    key = tuple(plugins)
+    if key not in _AVAILABLE or any(n not in _AVAILABLE[key] for n in need):
+        _AVAILABLE[key] = registry.available(plugins)
+    return _AVAILABLE[key]
+
+
 def run_batch(raw: dict, batch_id: int, start: int, stop: int, truths=None) -> dict:
     """Dask task: rows of tasks ``start..stop-1`` as columns (lists, :func:`result_schema`
     order). ``truths``: ``[Truth, ...]`` computed elsewhere (else simulated here)."""
-    from vehicle_observers.estimation import registry
-
     spec = spec_of(raw)
     tmap = None if truths is None else {t.key: t for t in truths}
-    avail = registry.available(spec.plugins)
+    avail = estimators_of(spec.plugins, {p[0] for p in spec.pairs})
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         rows = [run_task(spec, i, batch_id, tmap, avail) for i in range(start, stop)]
