@@ -3,7 +3,6 @@ a campaign killed (SIGKILL) mid-run resumes with nothing lost or duplicated."""
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -13,6 +12,7 @@ import pyarrow.compute as pc
 import pytest
 from campaignkit import PY, SLOW, TINY, kill_tree, plugin_env, same_bits, wait_for
 from vehicle_observers.campaign import read_lmi, read_results, run
+from vehicle_observers.campaign.spec import dump_toml
 from vehicle_observers.campaign.store import batch_path
 
 pytestmark = pytest.mark.xdist_group("campaign")
@@ -66,31 +66,11 @@ def test_resume_runs_only_missing_batches(tiny_serial, tmp_path):
     assert same_bits(read_results(dst), ref) == []
 
 
-def _write_spec(path, doc):
-    import tomllib  # noqa: F401  (the spec is TOML; written here by hand)
-
-    lines = [f"{k} = {json.dumps(v)}" for k, v in doc.items() if not isinstance(v, dict)]
-    for k, v in doc.items():
-        if isinstance(v, dict):
-            lines.append(f"[{k}]")
-            for kk, vv in v.items():
-                lines.append(f"{kk} = {_toml(vv)}")
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _toml(v):
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{k} = {_toml(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    return json.dumps(v)
-
-
 def test_sigkill_mid_campaign_then_resume(tmp_path, monkeypatch):
     import psutil
 
-    spec = _write_spec(tmp_path / "slow.toml", SLOW)
+    spec = tmp_path / "slow.toml"
+    spec.write_text(dump_toml(SLOW))
     out = tmp_path / "out"
     p = subprocess.Popen([PY, "-m", "vehicle_observers", "campaign", str(spec), "--out", str(out),
                           "--workers", "1", "--no-progress"], env=plugin_env(0.15),

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from campaignkit import PY, TINY, subprocess_env
 from vehicle_observers.campaign import SpecError, load_spec, run
-from vehicle_observers.campaign.spec import ERROR_KEYS, seed_sequence, stable_hash
+from vehicle_observers.campaign.spec import ERROR_KEYS, dump_toml, seed_sequence, stable_hash
 
 pytestmark = pytest.mark.xdist_group("campaign")
 
@@ -96,23 +96,11 @@ def test_another_spec_into_the_same_folder_is_refused(tmp_path):
     with pytest.raises(SpecError, match="holds another campaign"):
         run(other, out, engine="serial", progress=False)
     assert len(list((out / "results").glob("*.parquet"))) == n
-    # the same campaign written differently (TOML, key order, defaults spelled out) is accepted
-    toml = ("# same campaign\n" + "\n".join(f"{k} = {json.dumps(v)}" for k, v in small.items()
-                                             if not isinstance(v, dict) and k != "name")
-            + f'\nname = "{small["name"]}"\nreferences = ["open-loop-linear", "linear-kf"]\n')
-    for k, v in small.items():
-        if isinstance(v, dict):
-            toml += f"\n[{k}]\n" + "\n".join(f"{kk} = {_toml(vv)}" for kk, vv in v.items()) + "\n"
+    # the same campaign written differently (TOML, comments, defaults spelled out) is accepted
+    toml = "# same campaign\n" + dump_toml({**small, "references": ["open-loop-linear",
+                                                                     "linear-kf"]})
     assert load_spec(toml).sha256 == load_spec(small).sha256
     assert run(toml, out, engine="serial", progress=False).run_now == 0
-
-
-def _toml(v):
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{k} = {_toml(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    return json.dumps(v)
 
 
 def test_plan_enumerates_every_combination_once():

@@ -407,6 +407,28 @@ class Spec:
                 + (f"; LMI map of {len(self.lmi_points)} points" if self.lmi_points else ""))
 
 
+def dump_toml(doc: dict) -> str:
+    """TOML text of a spec document (scalars and lists at the top, then one table per
+    sub-table; tables inside lists and tables are written inline): ``load_spec`` of it is
+    the same campaign (same :attr:`Spec.sha256`)."""
+    def val(v):
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k} = {val(x)}" for k, x in v.items()) + "}"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, float):
+            return repr(v) if math.isfinite(v) else _err("spec", "value", f"{v} is not finite")
+        return json.dumps(v)
+
+    lines = [f"{k} = {val(v)}" for k, v in doc.items() if not isinstance(v, dict)]
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{k}]"] + [f"{kk} = {val(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"
+
+
 def load_spec(spec) -> Spec:
     """A :class:`Spec` from a TOML file path, a TOML text, a dict, or a :class:`Spec`."""
     if isinstance(spec, Spec):
