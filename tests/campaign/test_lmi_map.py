@@ -23,6 +23,23 @@ def test_problem_is_dpp_and_canonicalised_once():
     assert pr.problem._cache.param_prog is prog
 
 
+def test_reused_solver_gives_the_same_bits_as_a_new_one():
+    pr = L.problem()
+    pts = [("bmw_320i", 0.08, 5.0, 40.0, 0.1), ("yacine2015", 0.3, 5.0, 20.0, 0.0),
+           ("yacine2015", 0.12, 2.0, 20.0, 0.1), ("bmw_320i", 0.05, 2.0, 20.0, 0.1)]
+    rows = {}
+    for reuse in (True, False):
+        pr.reuse = reuse
+        try:
+            rows[reuse] = [L.solve_point(*p, RATE, ACC)[0] for p in pts]
+        finally:
+            pr.reuse = True
+    for a, b in zip(rows[True], rows[False]):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]), (k, a[k], b[k])
+
+
 @pytest.mark.parametrize("car,rel,lo,hi,kappa", [
     ("yacine2015", 0.05, 5.0, 20.0, 0.0), ("revs250lm", 0.1, 15.0, 62.0, 0.0),
     ("bmw_320i", 0.1, 5.0, 40.0, 0.1), ("bmw_320i", 0.3, 5.0, 40.0, 0.1),

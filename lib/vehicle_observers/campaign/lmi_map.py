@@ -108,6 +108,11 @@ class ParametricTheorem2:
                 cons.append(cp.hstack([X[0, 0], X[1, 1]]) + self.eps
                             * cp.hstack([self.d[i][j][0], self.d[i][j][1]]) >= 0)
         self.problem = cp.Problem(cp.Minimize(sum(self.g)), cons)
+        #: Clarabel's solver object, re-used with new data (``update``: no re-allocation, no
+        #: new symbolic factorisation; the interior-point iterations start afresh, so the
+        #: solution is bit-identical to a new solver's; ``reuse=False`` builds a new one)
+        self.cache: dict = {}
+        self.reuse = True
         if not self.problem.is_dpp():   # pragma: no cover - a structural property, tested
             raise RuntimeError("Theorem 2 problem is not DPP")
 
@@ -129,7 +134,8 @@ class ParametricTheorem2:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 data, chain, inv = self.problem.get_problem_data(solver="CLARABEL", solver_opts={})
-                raw = chain.solver.solve_via_data(data, False, False, {})
+                raw = chain.solver.solve_via_data(data, self.reuse, False, {},
+                                                  self.cache if self.reuse else None)
                 sol = chain.reductions[-1].invert(raw, inv[-1])
                 sol = Solution(sol.status, sol.opt_val, sol.primal_vars, {}, sol.attr)
                 for red, idata in reversed(list(zip(chain.reductions[:-1], inv[:-1]))):
