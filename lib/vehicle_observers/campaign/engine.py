@@ -34,10 +34,14 @@ from vehicle_observers.campaign import lmi_map, store, tasks
 from vehicle_observers.campaign.spec import SpecError, load_spec
 
 ENGINES = ("dask", "serial")
-#: Dask configuration of the embedded cluster's workers: no statistical profiler (it samples
-#: every thread's stack every 10 ms: CPU taken from the simulations); a cluster started with
-#: ``dask worker`` gets the same with ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False``
-WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+#: Dask configuration of the embedded cluster: no statistical profiler in the workers (it
+#: samples every thread's stack every 10 ms: CPU taken from the simulations), and two tasks
+#: queued per worker thread (the next batch is there when one finishes: no round trip to the
+#: scheduler between batches; idle workers still steal). A cluster started by hand gets the
+#: same with ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False`` (workers) and
+#: ``DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION=2`` (scheduler).
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False,
+                 "distributed.scheduler.worker-saturation": 2.0}
 
 
 class CampaignError(RuntimeError):
