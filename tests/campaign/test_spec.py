@@ -180,3 +180,14 @@ def test_an_estimator_restricted_to_some_plants():
     d["estimators"][1]["plants"] = ["lpv:vw_vanagon"]
     with pytest.raises(SpecError, match="names 'lpv:vw_vanagon', not one of truth.plants"):
         load_spec(d)
+
+
+def test_spec_sources(tmp_path):
+    with pytest.raises(SpecError, match="no such campaign spec file"):
+        load_spec(tmp_path / "missing")
+    with pytest.raises(SpecError, match="not valid TOML"):
+        load_spec("estimators = [")
+    bad = tmp_path / "when.toml"
+    bad.write_text('estimators = ["ekf"]\nwhen = 2026-12-01\n[truth]\nplants = ["lpv:bmw_320i"]\n')
+    with pytest.raises(SpecError, match="values must be strings, finite numbers"):
+        load_spec(bad)

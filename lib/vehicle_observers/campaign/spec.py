@@ -293,7 +293,12 @@ class Spec:
     def __init__(self, doc: dict, source: str = "spec"):
         self.source = source
         #: the document as given (JSON-able): what the workers rebuild the spec from
-        self.raw = json.loads(json.dumps(doc)) if isinstance(doc, dict) else doc
+        try:
+            self.raw = json.loads(json.dumps(doc, allow_nan=False)) if isinstance(doc, dict) \
+                else doc
+        except (TypeError, ValueError) as exc:
+            raise SpecError(f"{source}: values must be strings, finite numbers, lists and "
+                            f"tables ({exc})") from None
         self.doc = _normalise(doc, source)
 
     @cached_property
@@ -437,7 +442,7 @@ def load_spec(spec) -> Spec:
         return Spec(spec, "spec")
     s = str(spec)
     p = Path(s)
-    if "\n" not in s and (p.suffix == ".toml" or p.exists()):
+    if "\n" not in s and "=" not in s:
         if not p.is_file():
             raise SpecError(f"{p}: no such campaign spec file")
         try:
