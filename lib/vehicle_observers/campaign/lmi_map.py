@@ -158,33 +158,39 @@ class ParametricTheorem2:
 
 def certify(model, epsilon: float, phi, sol: dict) -> dict:
     """Independent margins of a solution (module docstring, step 3): ``lmi_margin`` (min
-    eigenvalue margin of (17)-(19), :func:`~vehicle_observers.design.lmi.check_matrix`),
-    ``lmi_relative_margin``, ``metzler_margin`` (min off-diagonal of ``A^- - L C``) and its
-    relative value, ``diag_margin`` (min of (20)'s diagonal, relative to its entries)."""
+    eigenvalue margin of (17)-(19), :func:`~vehicle_observers.design.lmi.check_matrix` on each
+    family's LMIs recomputed from the numbers and stacked block-diagonally: the eigenvalues of
+    a block-diagonal matrix are those of its blocks), ``lmi_relative_margin`` (each family's
+    margin over its largest eigenvalue magnitude, the smallest of the three),
+    ``metzler_margin`` (min off-diagonal of ``A^- - L C``) and its relative value,
+    ``diag_margin`` (min of (20)'s diagonal, relative to its entries)."""
+    from scipy.linalg import block_diag
+
     from vehicle_observers.design.lmi import check_matrix
     from vehicle_observers.observers.interval import metzler_margins
 
     K = model.n_modes
     I = np.eye(2)
     C = model.C
-    checks = []
+    fam = {"(17)": [], "(18)": [], "(19)": []}
     diag_rel = np.inf
     for i in range(K):
         Ps = [np.diag(sol["P"][i, j]) for j in range(4)]
         for j in range(4):
             P, W, M = Ps[j], sol["W"][i, j], sol["M"][i]
-            checks.append(check_matrix(f"(17)[{i + 1},{j + 1}]", P - P_MIN * I, "pos"))
-            checks.append(check_matrix(f"(18)[{i + 1},{j + 1}]", P + M, "pos"))
+            fam["(17)"].append(P - P_MIN * I)
+            fam["(18)"].append(P + M)
             Ap = model.A_hi[i, j]
             S = Ap.T @ P + P @ Ap - C.T @ W.T - W @ C + EPS_DECAY * P
             for k in range(4):
                 S = S + phi[i, k] * (Ps[k] + M)
-            checks.append(check_matrix(f"(19)[{i + 1},{j + 1}]",
-                                       np.block([[S, P], [P, -sol["gamma"][i] * I]]), "neg"))
+            fam["(19)"].append(np.block([[S, P], [P, -sol["gamma"][i] * I]]))
             X = P @ model.A_lo[i, j] - W @ C + epsilon * P
             dg = np.diag(X)
             scale = max(float(np.max(np.abs(P @ model.A_lo[i, j]))), float(np.max(epsilon * P)))
             diag_rel = min(diag_rel, float(dg.min()) / scale)
+    checks = [check_matrix(n, block_diag(*ms), "neg" if n == "(19)" else "pos")
+              for n, ms in fam.items()]
     L = np.array([[np.linalg.solve(np.diag(sol["P"][i, j]), sol["W"][i, j]) for j in range(4)]
                   for i in range(K)])
     mm = metzler_margins(model, L)
