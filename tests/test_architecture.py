@@ -3,7 +3,7 @@
 Layers, lowest first (a module may import only from lower layers or from its own subpackage):
 
     core  <-  models  <-  design, data  <-  observers, results  <-  baselines  <-  estimation
-          <-  cli  <-  bench
+          <-  campaign  <-  cli  <-  bench
 
 The reproductions (``lib/vehicle_observers_papers``) sit beside the library: they import it,
 and the library never imports them (nor any other package of this repository but itself).
@@ -25,10 +25,10 @@ from vehicle_observers.data.logs import repo_root
 PKG = "vehicle_observers"
 SRC = repo_root() / "lib" / PKG
 LAYER = {"core": 0, "models": 1, "design": 2, "data": 2, "observers": 3, "results": 3,
-         "baselines": 4, "estimation": 5, "cli": 6, "bench": 7}
+         "baselines": 4, "estimation": 5, "campaign": 6, "cli": 7, "bench": 8}
 #: packages of this repository the library must never import
 BESIDE = ("vehicle_observers_papers",)
-ROOT_MODULES = {"__init__": 0.5, "__main__": 8}  # the root re-exports core errors; __main__ runs cli
+ROOT_MODULES = {"__init__": 0.5, "__main__": 9}  # the root re-exports core errors; __main__ runs cli
 
 
 def module_name(path: Path, src: Path) -> str:
@@ -192,8 +192,9 @@ def test_the_reproductions_are_a_package_beside_the_library():
     folders = sorted(p.parent.name for p in papers.glob("*/__init__.py"))
     assert folders, "no reproduction folders"
     import re
-    for f in folders:   # one folder per paper, <author>_<year>, and the benchmark study
-        assert re.fullmatch(r"[a-z]+_(19|20)\d\d", f) or f == "benchmark_study", f
+    for f in folders:   # one folder per paper, <author>_<year>, and the studies of notebooks 07-08
+        assert re.fullmatch(r"[a-z]+_(19|20)\d\d", f) or f in ("benchmark_study",
+                                                               "robustness_study"), f
     assert not (SRC / "papers").exists(), "paper code inside the library"
 
 

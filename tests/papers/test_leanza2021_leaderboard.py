@@ -14,7 +14,7 @@ def _row(ds, o, v, causal=True, **kw):
 
 
 def _table(best=0.05):
-    return [_row("plant_x", "open-loop-linear", 0.1), _row("plant_x", "linear-kf", 0.07),
+    return [_row("plant_x", "open-loop-linear", 0.1), _row("plant_x", "linear-kf-ml", 0.07),
             _row("plant_x", "vy-zero", 0.3), _row("plant_x", "rts", 0.01, causal=False),
             _row("plant_x", "adaptive-ekf", best, coverage_2sigma=0.95, nees=1.1,
                  verdict="informative"),

@@ -127,6 +127,7 @@ def _parser():
                                      "a [kalman] table for the vehicle file")
     _add_common(tu)
     _identify_parser(sub)
+    _campaign_parser(sub)
     g = e.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
@@ -461,6 +462,8 @@ def _run(args):
             return cmd_tune(args)
         if args.cmd == "identify":
             return cmd_identify(args)
+        if args.cmd == "campaign":
+            return cmd_campaign(args)
         return cmd_estimate(args)
     except _input_errors() as exc:
         from vehicle_observers.core.errors import InfeasibleDesign
@@ -676,6 +679,62 @@ def console(argv=None):
         except (OSError, ValueError):
             pass
     os._exit(code)
+
+
+def _campaign_parser(sub):
+    c = sub.add_parser("campaign", help="robustness campaign: every estimator against cars, "
+                                        "parameter errors and noise, on Dask; 'campaign report "
+                                        "DIR' writes its tables and figures")
+    c.add_argument("spec", metavar="SPEC.toml|report",
+                   help="campaign spec (vehicle_observers.campaign.spec), or 'report'")
+    c.add_argument("dir", nargs="?", metavar="DIR", help="with 'report': the campaign folder")
+    c.add_argument("--out", help="results folder (one Parquet file per batch; a re-run resumes)")
+    c.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: an "
+                        "embedded cluster of one single-threaded worker process per core)")
+    c.add_argument("--workers", type=int, help="worker processes of the embedded cluster")
+    c.add_argument("--engine", choices=("dask", "serial"), default="dask",
+                   help="serial: every batch in this process (same results)")
+    g = c.add_mutually_exclusive_group()
+    g.add_argument("--progress", dest="progress", action="store_true", default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
+    g.add_argument("--no-progress", dest="progress", action="store_false")
+
+
+def cmd_campaign(args, out=None):
+    """``campaign SPEC.toml --out DIR``: :func:`vehicle_observers.campaign.run` (the spec is
+    checked completely before anything runs); ``campaign report DIR``:
+    :func:`vehicle_observers.campaign.report.write_report`."""
+    out = out or sys.stdout
+    from vehicle_observers import campaign
+
+    if args.plugin:
+        raise CLIError("campaign: name plug-in modules in the spec's 'plugins' key (they are "
+                       "imported on every worker), not with --plugin")
+    if args.spec == "report":
+        if not args.dir:
+            raise CLIError("campaign report: give the campaign folder (campaign report DIR)")
+        from vehicle_observers.campaign.report import write_report
+
+        t = write_report(args.dir)
+        s = t["spec"]
+        print(f"campaign {s.doc['name']} ({s.sha256[:12]}): {t['rows']} of {s.n_tasks} "
+              f"simulations, {len(t['lmi_points'])} of {len(s.lmi_points)} LMI map points", file=out)
+        for r in t["failures"]:
+            print(f"  {r['estimator']:22s} failed {r['failed']}/{r['n']}", file=out)
+        for r in t["best"]:
+            print(f"  best at {r['parameter']} {r['error']:+g}: {r['best']} "
+                  f"(median v_y RMSE {r['best_median_rmse_vy']:.4g} m/s)", file=out)
+        print(f"wrote {len(t['files'])} files to {Path(t['files'][0]).parent}", file=out)
+        return 0
+    if args.dir:
+        raise CLIError(f"campaign: unexpected argument {args.dir!r} (campaign SPEC.toml --out DIR)")
+    if not args.out:
+        raise CLIError("campaign: --out DIR is required (the results folder)")
+    res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
+                       workers=args.workers, progress=args.progress)
+    print(res.line(), file=out)
+    return 0
 
 
 if __name__ == "__main__":

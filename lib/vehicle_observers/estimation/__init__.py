@@ -5,6 +5,7 @@ from vehicle_observers.estimation import (
     adapters,  # noqa: F401  (registers the paper observers, after the Kalman family)
     kalman_runs,  # noqa: F401  (registers ekf, ekf-filterpy, ukf, rts)
     peer_runs,  # noqa: F401  (registers the peers, baselines, adaptive-ekf, fusion-interval)
+    references,  # noqa: F401  (registers open-loop-linear, linear-kf)
 )
 from vehicle_observers.estimation.registry import (
     EstimatorSpec,

@@ -5,9 +5,10 @@
   stiffnesses (on ``revs250lm`` exactly their constants), their noise rule;
 * ``mbds-fg`` (offline batch) and ``mbds-fg-lag5`` (fixed lag of 5 samples: 4-sample
   look-ahead, not causal) - their factor graph;
-* ``linear-kf`` - a plain linear Kalman filter on the vehicle file (linear tyres of the
+* ``linear-kf-ml`` - a plain linear Kalman filter on the vehicle file (linear tyres of the
   zero-slip slopes, no added term, stiffness box considered, ML noise on measured channels);
-* ``open-loop-linear`` - the linear single-track model driven by steering and speed;
+* ``open-loop-linear`` (registered by :mod:`vehicle_observers.estimation.references`) - the linear
+  single-track model driven by steering and speed;
   ``vy-zero`` - ``v_y = 0``;
 * ``adaptive-ekf`` - :mod:`vehicle_observers.baselines.adaptive` with the terms and tuning
   chosen by :func:`vehicle_observers.estimation.selection.select`, a ``vy_std_mps`` column
@@ -60,7 +61,7 @@ def linear_vehicle(vehicle):
 def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=AD.TERM_NAMES,
                   maxiter: int = 250) -> tuple[SE.Selection, float]:
     """The (cached) :func:`selection.select` of ``log``; ``linear``: no term, linear tyres
-    (the ``linear-kf`` tuning). Returns (selection, seconds spent now)."""
+    (the ``linear-kf-ml`` tuning). Returns (selection, seconds spent now)."""
     cands = () if linear else tuple(candidates)
     key = _key(log, vehicle, f"{linear}{cands}{maxiter}")
     if key in _SELECTIONS:
@@ -127,11 +128,11 @@ def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP
                          candidates=candidates, maxiter=maxiter)
 
 
-@estimator("linear-kf", "plain linear Kalman filter on the vehicle file (linear tyres of the "
+@estimator("linear-kf-ml", "plain linear Kalman filter on the vehicle file (linear tyres of the "
            "zero-slip slopes, measures r and a_y), ML noise on measured channels",
            optional_columns=("ay_mps2",), paper="baseline")
 def run_linear_kf(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S, **_):
-    return _run_adaptive(log, vehicle, "linear-kf", linear=True, progress=progress,
+    return _run_adaptive(log, vehicle, "linear-kf-ml", linear=True, progress=progress,
                          max_gap=max_gap)
 
 
@@ -169,15 +170,6 @@ def run_mbds_fg(log: DriveLog, vehicle, **_):
            paper="leanza2021")
 def run_mbds_fg_lag(log: DriveLog, vehicle, **_):
     return PE.mbds_fg(log, PE.SingleTrack.from_vehicle(vehicle), window=PE.MBDS_FIXED_LAG)
-
-
-@estimator("open-loop-linear", "linear single-track model driven by the measured steering and "
-           "speed (no measurement feedback)", paper="baseline")
-def run_open_loop(log: DriveLog, vehicle, **_):
-    t0 = time.perf_counter()
-    vy = PE.open_loop_linear(log, vehicle.params)
-    return Trajectory.from_columns(log.t, {"vy_mps": vy, "beta_rad": np.arctan2(vy, log.vx)},
-                                   seconds=time.perf_counter() - t0, estimator="open-loop-linear")
 
 
 @estimator("vy-zero", "v_y = 0 (the do-nothing baseline)", paper="baseline")

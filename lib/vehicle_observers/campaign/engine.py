@@ -1,0 +1,229 @@
+"""Run a campaign: serially or on Dask distributed, resumable, every batch saved at once.
+
+    run(spec, out_dir, scheduler=None, engine="dask", workers=None, progress=None)
+
+``engine="dask"`` without ``scheduler`` starts an embedded ``LocalCluster`` on 127.0.0.1 with
+one single-threaded worker *process* per core (``processes=True, threads_per_worker=1``;
+``workers`` overrides the count), the thread counts of BLAS/OpenMP, Rayon (Clarabel) and
+numba pinned to 1 in each worker's environment before it starts
+(:data:`vehicle_observers.campaign.tasks.THREAD_ENV`). ``scheduler="tcp://HOST:PORT"`` runs the
+same campaign on an existing cluster (``dask scheduler`` / ``dask worker``, or
+dask-jobqueue's ``SLURMCluster``; README); workers whose environment lacks the pins get
+them through distributed's ``Environ`` nanny plug-in, which restarts them once. Every worker
+warms the numba cache once (:class:`~vehicle_observers.campaign.workers.CampaignPlugin`).
+``engine="serial"`` runs the same batches in this process, in order.
+
+Truths (the noise-free drives) are Dask tasks of their own, computed once and passed to the
+batches that need them. Each finished batch is written at once by this process
+(:mod:`vehicle_observers.campaign.store`); a re-run into the same folder skips the batches
+present. The rows do not depend on the engine, the number of workers, the order of
+completion or on a worker lost mid-run (its batches are recomputed): every random draw is
+keyed by the task (:func:`~vehicle_observers.campaign.spec.seed_sequence`).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from vehicle_observers.campaign import lmi_map, store, tasks
+from vehicle_observers.campaign.spec import SpecError, load_spec
+
+ENGINES = ("dask", "serial")
+#: Dask configuration of the embedded cluster: no statistical profiler in the workers (it
+#: samples every thread's stack every 10 ms: CPU taken from the simulations), and two tasks
+#: queued per worker thread (the next batch is there when one finishes: no round trip to the
+#: scheduler between batches; idle workers still steal). A cluster started by hand gets the
+#: same with ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False`` (workers) and
+#: ``DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION=2`` (scheduler).
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False,
+                 "distributed.scheduler.worker-saturation": 2.0}
+
+
+class CampaignError(RuntimeError):
+    """The campaign machinery failed (not a task: failing tasks are recorded as rows)."""
+
+
+@dataclass
+class CampaignSummary:
+    """What :func:`run` did. ``tasks``: simulations of the plan; ``done_before``: already in
+    the folder; ``run_now``: computed by this call; ``failed``: rows with ``ok = False`` in the
+    folder; ``lmi_*`` likewise for the LMI map; ``seconds``: wall time of this call."""
+
+    out: Path
+    spec_sha256: str
+    tasks: int
+    batches: int
+    done_before: int
+    run_now: int
+    failed: int
+    lmi_points: int
+    lmi_done_before: int
+    lmi_run_now: int
+    seconds: float
+    engine: str
+    workers: int
+    failures: dict = field(default_factory=dict)
+
+    def line(self) -> str:
+        txt = (f"{self.run_now} simulation(s) run now, {self.done_before} already done, "
+               f"{self.tasks} in the plan ({self.batches} batches); {self.failed} failed")
+        if self.lmi_points:
+            txt += (f"; LMI map {self.lmi_run_now} point(s) now, {self.lmi_done_before} "
+                    f"before, {self.lmi_points} in all")
+        return txt + f"; {self.engine}, {self.workers} worker(s), {self.seconds:.1f} s -> {self.out}"
+
+
+def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
+        workers: int | None = None, progress: bool | None = None) -> CampaignSummary:
+    """Run (or resume) the campaign ``spec`` (path, TOML text, dict or
+    :class:`~vehicle_observers.campaign.spec.Spec`) into ``out_dir`` (module docstring).
+    ``progress``: a tqdm bar on stderr (default: when stderr is a terminal). Raises
+    :class:`~vehicle_observers.campaign.spec.SpecError` before anything runs when the spec,
+    the engine options or the folder are wrong."""
+    t_start = time.perf_counter()
+    spec = load_spec(spec)
+    if engine not in ENGINES:
+        raise SpecError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if scheduler is not None and engine != "dask":
+        raise SpecError("a scheduler address needs engine=\"dask\"")
+    if workers is not None and (int(workers) != workers or workers < 1):
+        raise SpecError(f"workers must be an integer >= 1, got {workers!r}")
+    if scheduler is not None and workers is not None:
+        raise SpecError("workers is the size of the embedded cluster; with a scheduler "
+                        "address the cluster's own workers run")
+    out = Path(out_dir)
+    store.prepare(out, spec)
+    done = store.done_batches(out, "results")
+    ldone = store.done_batches(out, "lmi")
+    pending = [b for b in spec.batches() if b[0] not in done]
+    lpending = [b for b in spec.lmi_batches() if b[0] not in ldone]
+    n_before = sum(b - a for k, a, b in spec.batches() if k in done)
+    l_before = sum(b - a for k, a, b in spec.lmi_batches() if k in ldone)
+    show = sys.stderr.isatty() if progress is None else bool(progress)
+    from tqdm import tqdm
+
+    total = spec.n_tasks + len(spec.lmi_points)
+    bar = tqdm(total=total, initial=n_before + l_before, unit="sim", file=sys.stderr,
+               disable=not show, desc=spec.doc["name"], smoothing=0.05)
+    rschema, lschema = tasks.result_schema(), lmi_map.schema()
+
+    def save(kind, bid, cols):
+        store.write_batch(out, kind, bid, cols, rschema if kind == "results" else lschema)
+        bar.update(len(cols["batch"]))
+
+    n_workers = 1
+    try:
+        if engine == "serial":
+            if pending:
+                tasks.warm_up(spec.plugins)
+            for bid, a, b in pending:
+                save("results", bid, tasks.run_batch(spec.raw, bid, a, b))
+            for bid, a, b in lpending:
+                save("lmi", bid, lmi_map.run_lmi_batch(spec.raw, bid, a, b))
+        elif pending or lpending:
+            n_workers = _run_dask(spec, pending, lpending, save, scheduler, workers)
+    finally:
+        bar.close()
+    import pyarrow.compute as pc
+
+    res = store.read_results(out, ["ok", "estimator"])
+    failed = int(len(res) - pc.sum(res["ok"]).as_py()) if len(res) else 0
+    fails = {}
+    if failed:
+        bad = res.filter(pc.invert(res["ok"]))
+        for e in bad["estimator"].to_pylist():
+            fails[e] = fails.get(e, 0) + 1
+    return CampaignSummary(out, spec.sha256, spec.n_tasks, len(spec.batches()), n_before,
+                           sum(b - a for _, a, b in pending), failed, len(spec.lmi_points),
+                           l_before, sum(b - a for _, a, b in lpending),
+                           time.perf_counter() - t_start, engine, n_workers, fails)
+
+
+def local_cluster(workers: int | None = None):
+    """The embedded cluster: ``workers`` (default: cores) single-threaded worker processes on
+    127.0.0.1, thread pins in their environment, no dashboard, :data:`WORKER_CONFIG`."""
+    import dask
+    from distributed import LocalCluster
+
+    n = int(workers or os.cpu_count() or 1)
+    with dask.config.set(WORKER_CONFIG):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                            host="127.0.0.1", dashboard_address=None,
+                            silence_logs=logging.ERROR, env=dict(tasks.THREAD_ENV))
+
+
+def prepare_client(client, plugins=()):
+    """Pin the threads of every worker (restarting those started without the pins, through
+    their nanny) and register :class:`~vehicle_observers.campaign.workers.CampaignPlugin`."""
+    from distributed.diagnostics.plugin import Environ
+
+    from vehicle_observers.campaign.workers import CampaignPlugin, thread_env
+
+    envs = client.run(thread_env)
+    if any(any(v != tasks.THREAD_ENV[k] for k, v in e.items()) for e in envs.values()):
+        try:
+            client.register_plugin(Environ(tasks.THREAD_ENV))
+        except Exception:  # noqa: BLE001 - workers without a nanny: pinned by the plug-in only
+            pass
+    client.register_plugin(CampaignPlugin(plugins))
+
+
+def _run_dask(spec, pending, lpending, save, scheduler, workers) -> int:
+    from distributed import Client, as_completed
+
+    for name in ("distributed", "distributed.worker", "distributed.scheduler",
+                 "distributed.nanny", "distributed.core", "distributed.client"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+    cluster = None
+    try:
+        if scheduler is None:
+            cluster = local_cluster(workers)
+            client = Client(cluster, set_as_default=False)
+        else:
+            try:
+                client = Client(scheduler, set_as_default=False, timeout=30)
+            except OSError as exc:
+                raise SpecError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+        try:
+            prepare_client(client, spec.plugins)
+            n_workers = len(client.scheduler_info()["workers"])
+            tag = spec.sha256[:16]
+            need = {}
+            for _, a, b in pending:
+                for args in tasks.truths_of_batch(spec, a, b):
+                    need.setdefault(args, None)
+            tfut = {args: client.submit(tasks.make_truth, args, key=f"vo-truth-{tag}-{i}",
+                                        pure=False)
+                    for i, args in enumerate(need)}
+            futs = {}
+            for bid, a, b in pending:
+                tr = [tfut[args] for args in tasks.truths_of_batch(spec, a, b)]
+                f = client.submit(tasks.run_batch, spec.raw, bid, a, b, tr,
+                                  key=f"vo-batch-{tag}-{bid}", pure=False)
+                futs[f.key] = ("results", bid, f)
+            for bid, a, b in lpending:
+                f = client.submit(lmi_map.run_lmi_batch, spec.raw, bid, a, b,
+                                  key=f"vo-lmi-{tag}-{bid}", pure=False)
+                futs[f.key] = ("lmi", bid, f)
+            for f in as_completed([v[2] for v in futs.values()], loop=client.loop):
+                kind, bid, _ = futs.pop(f.key)
+                if f.status != "finished":
+                    exc = f.exception()
+                    for _, _, g in futs.values():
+                        g.cancel()
+                    msg = str(exc).splitlines()[0] if str(exc) else ""
+                    raise CampaignError(f"{kind} batch {bid} failed on the cluster: "
+                                        f"{type(exc).__name__}: {msg}")
+                save(kind, bid, f.result())
+                f.release()
+            return n_workers
+        finally:
+            client.close()
+    finally:
+        if cluster is not None:
+            cluster.close()
