@@ -50,6 +50,7 @@ lab: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m vehicle_observers_papers.benchmark_study
+	$(BIN)/python -m vehicle_observers.bench.campaign
 
 lint: $(STAMP)
 	$(BIN)/ruff check lib tests notebooks
