@@ -261,7 +261,7 @@ def claims(table: list[dict], figure: str = "", prefix: str = "lb") -> list[dict
     dicts of :meth:`vehicle_observers.results.reporting.Report.claim` (``kind="target"``),
     each judged by a rule over the metrics of :func:`metrics` with the same ``prefix``; the
     verdict is "reproduced" exactly when :func:`targets` says met (up to the 4-digit
-    storage of the metrics)."""
+    storage of the metrics); items ``"<dataset>: <target>"`` with :func:`targets`' names."""
     from vehicle_observers.results.rules import Rule
 
     L, S = LIMITS, SOURCES
@@ -280,8 +280,8 @@ def claims(table: list[dict], figure: str = "", prefix: str = "lb") -> list[dict
         k = f"{prefix}_{_key(ds)}"
         note = f"best causal: {best}"
         if ds.startswith("plant_"):
-            for name, lim, text in (("open_loop", L["open_loop"], "open-loop linear bicycle"),
-                                    ("linear_kf", L["linear_kf"], "plain linear KF")):
+            for name, lim, text in (("open_loop", L["open_loop"], "open loop"),
+                                    ("linear_kf", L["linear_kf"], "linear KF")):
                 if f"{k}_best_over_{name}" in m:
                     add(ds, f"best causal <= {lim:g} x {text}", f"best causal / {text} v_y RMSE",
                         Rule(f"{k}_best_over_{name}", reproduced=f"value <= {lim:g}",
@@ -302,7 +302,7 @@ def claims(table: list[dict], figure: str = "", prefix: str = "lb") -> list[dict
         if f"{k}_best_over_vy_zero" in m:
             flag = f"{k}_adaptive_ekf_uninformative"
             cond = "value < 1" + (f" or {flag} == 1" if flag in m else "")
-            add(ds, "beats v_y = 0 or adaptive-ekf flags it uninformative",
+            add(ds, "beats v_y = 0 or flagged uninformative",
                 "best causal / v_y = 0 v_y RMSE",
                 Rule(f"{k}_best_over_vy_zero", reproduced=cond, paper="< 1 (or flagged)",
                      source=S["vy_zero"]), note)
