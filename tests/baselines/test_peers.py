@@ -99,8 +99,8 @@ def test_fixed_lag_reads_four_samples_ahead(revs):
 
 def test_revs_numbers_of_their_code(revs):
     """The Revs log through their code path: v_y RMSE 0.350 m/s (KF) and 0.242 m/s (batch
-    factor graph) over the whole log, the values recorded for their repository in notebook
-    07 (``REVS_REFERENCES``, computed there independently); sideslip RMSE in their metric
+    factor graph) over the whole log (the references of notebook 07,
+    ``benchmark_study.runs.revs_references``, go through the registry); sideslip RMSE in their metric
     (degrees over every sample), and both beat v_y = 0 (1.69 deg)."""
     bt = np.arctan2(revs.vy, revs.vx)
     kf = PE.mbds_kf(revs)

@@ -45,3 +45,23 @@ def test_outputs_and_metrics_file_list(res, tmp_path):
     for f in {r["factor"] for r in loss}:
         assert sum(r["share"] for r in loss if r["factor"] == f) == pytest.approx(1.0, abs=1e-3)
     assert np.isfinite([r["interval-ifqir2017"] for r in loss]).all()
+
+
+def test_leaderboard_files(res, tmp_path):
+    """make bench writes the leaderboard table (leaderboard.csv / .md, targets met / MISSED)
+    beside the benchmark and keeps both in metrics.json's file list."""
+    from vehicle_observers_papers.leanza_2021 import leaderboard as LB
+
+    table = [{"dataset": "plant_x", "observer": o, "causal": True, "rmse_vy": v,
+              "rmse_beta_deg": 10 * v} for o, v in (("open-loop-linear", 0.1), ("linear-kf", 0.07),
+                                                    ("vy-zero", 0.3), ("mbds-kf", 0.09))]
+    tg = LB.targets(table)
+    paths = writers.write_outputs(res, tmp_path, leaderboard=(table, tg, ["plant_x/x: n/a"]))
+    assert {"leaderboard.csv", "leaderboard.md"} <= {p.name for p in paths}
+    md = (tmp_path / "leaderboard.md").read_text()
+    assert "| plant_x | mbds-kf | yes | 0.09 | 0.9 |" in md
+    assert "| best causal <= 0.8 x open loop | 0.9 | 0.8 | MISSED |" in md
+    assert "| best causal <= 0.85 x linear KF | 1.286 | 0.85 | MISSED |" in md
+    doc = json.loads((tmp_path / "metrics.json").read_text())
+    assert {"leaderboard.csv", "leaderboard.md"} <= set(doc["files"])
+    assert (tmp_path / "leaderboard.csv").read_text().splitlines()[0].startswith("dataset,observer")

@@ -126,3 +126,35 @@ def test_independent_plant_section(m):
     assert m["interval_cars"] == 3 and m["interval_certified_cars"] == 3
     assert m["interval_min_matched_enclosure"] == 1.0
     assert claims["a certified interval observer for every car"]["verdict"] == "reproduced"
+
+
+def test_leaderboard_section(m):
+    """Leaderboard (quick: the Revs log's first 30 s, two short plant manoeuvres): v_y = 0
+    recomputed from the log, the target ratios from the stored rows, and every target claim
+    (kind "target", a "chosen here" source) judged by its limit."""
+    from vehicle_observers_papers.leanza_2021 import leaderboard as LB
+
+    log = load_revs()
+    seg = log.segment(log.t[0], log.t[0] + 30.0)
+    assert m["lb.revs.vy-zero.rmse_vy"] == pytest.approx(float(np.sqrt(np.mean(seg.vy ** 2))),
+                                                         rel=REL)
+    for ds in ("revs", "plant_sine_with_dwell", "plant_slalom"):
+        rm = {k.split(".")[2]: v for k, v in m.items()
+              if k.startswith(f"lb.{ds}.") and k.endswith(".rmse_vy")}
+        assert {"open-loop-linear", "vy-zero", "linear-kf", "adaptive-ekf", "mbds-kf"} <= set(rm)
+        best = m[f"lb_{ds}_best_causal_rmse_vy"]
+        # the best causal estimator is one of the rows and not a baseline
+        assert best in {v for o, v in rm.items() if o not in LB.BASELINES}
+        assert m[f"lb_{ds}_best_over_vy_zero"] == pytest.approx(best / rm["vy-zero"], rel=2 * REL)
+    claims = [c for c in m["_doc"]["claims"] if c["paper"] == "leaderboard target"]
+    assert len(claims) == 12
+    for c in claims:
+        assert c["kind"] == "target" and c["rule_def"]["source"].startswith("chosen here:")
+        lim = LB.LIMITS
+        v, item = c["value"], c["item"]
+        if "x open loop" in item:
+            assert c["verdict"] == ("reproduced" if v <= lim["open_loop"] else "differs")
+        elif "coverage" in item:
+            lo, hi = lim["coverage"]
+            assert c["verdict"] == ("reproduced" if lo <= v <= hi else "differs")
+    assert (m["_dir"] / "leaderboard_vy.png").exists()

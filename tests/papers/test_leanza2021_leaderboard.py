@@ -59,3 +59,25 @@ def test_score_row_coverage_and_nees_of_a_consistent_std():
     assert r["coverage_2sigma"] == pytest.approx(0.9545, abs=0.003)
     assert r["nees"] == pytest.approx(1.0, abs=0.02)
     assert r["rmse_vy"] == pytest.approx(0.2, rel=0.01)
+
+
+def test_claims_judge_the_targets_from_the_metrics():
+    """Every target but the wall-clock one becomes a kind="target" claim whose rule, evaluated
+    on the recorded (4-digit) metrics, gives "reproduced" exactly when targets() says met."""
+    from vehicle_observers.results.reporting import Report
+
+    for best in (0.05, 0.09, 0.5):
+        table = _table(best)
+        table.append(_row("revs", "open-loop-linear", 0.28))
+        rep = Report("t", None, show=False)
+        rep.record(metrics=LB.metrics(table))
+        rep.record(claims=LB.claims(table))
+        tg = {f"{t['dataset']}: {t['target']}": t["met"] for t in LB.targets(table)}
+        got = {c.item: c.verdict for c in rep.claims}
+        assert set(got) == set(tg)
+        assert {k: v == "reproduced" for k, v in got.items()} == tg
+        assert all(c.kind == "target" and c.rule_def["source"].startswith("chosen here:")
+                   for c in rep.claims)
+    flag = "beats v_y = 0 or flagged uninformative"
+    assert {c.item: c.verdict for c in rep.claims}[f"plant_x: {flag}"] == "differs"
+    assert not any("us_per_step" in k or "seconds" in k for k in LB.metrics(_table()))

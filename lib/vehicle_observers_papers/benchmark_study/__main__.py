@@ -1,6 +1,7 @@
 """``python -m vehicle_observers_papers.benchmark_study`` (``make bench``): the accuracy
-benchmark, the speed benchmarks and the independent-plant study; writes ``build/benchmark/``
-and prints the tables."""
+benchmark, the speed benchmarks, the independent-plant study and the leaderboard
+(:mod:`vehicle_observers_papers.leanza_2021.leaderboard`); writes ``build/benchmark/`` and
+prints the tables."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from vehicle_observers.data.logs import repo_root
 from vehicle_observers.models.vehicle import load_vehicle
 
 from vehicle_observers_papers.benchmark_study import plant_study, runs, speed, writers
+from vehicle_observers_papers.leanza_2021 import leaderboard as LB
 
 
 def main(argv=None) -> int:
@@ -23,12 +25,19 @@ def main(argv=None) -> int:
                     help="output folder (default build/benchmark, ignored by git: wall-clock "
                     "results change on every run)")
     ap.add_argument("--no-topics", action="store_true", help="skip the speed benchmarks")
+    ap.add_argument("--no-leaderboard", action="store_true", help="skip the leaderboard")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     res = runs.run(seed=args.seed, quick=args.quick,
                    progress=lambda s: print(f"  running {s}", file=sys.stderr, flush=True))
     topics = None if args.no_topics else speed.topic_benchmarks(args.quick)
-    paths = writers.write_outputs(res, Path(args.out), topics)
+    board = None
+    if not args.no_leaderboard:
+        table, lb_errors = LB.rows(LB.datasets(args.quick, seed=args.seed), progress=lambda s: print(
+            f"  leaderboard {s}", file=sys.stderr, flush=True))
+        cost = [r["us_per_step"] for r in topics or () if r["topic"] == "leaderboard"]
+        board = (table, LB.targets(table, cost[0] if cost else None), lb_errors)
+    paths = writers.write_outputs(res, Path(args.out), topics, board)
     print(writers.markdown_table(res["rows"], writers.summary_columns()))
     if topics:
         print()
@@ -47,6 +56,12 @@ def main(argv=None) -> int:
     section = plant_study.plant_section(args.seed, args.quick, best, rv["rts"], rv["ekf"],
                                         revs_diag=revs_diag)
     writers.print_plant_section(section)
+    if board is not None:
+        print("\n## Leaderboard (build/benchmark/leaderboard.md)\n")
+        print(LB.markdown(board[0], LB.TABLE_COLUMNS))
+        print()
+        print(LB.markdown([{**t, "met": "met" if t["met"] else "MISSED"} for t in board[1]],
+                          ("dataset", "target", "value", "limit", "met", "detail")))
     print(f"\nwrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - t0:.1f} s")
     return 0
 

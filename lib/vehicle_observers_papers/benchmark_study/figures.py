@@ -125,3 +125,44 @@ def fig_plant(rows: list[dict]):
     ax.legend(fontsize=7, ncol=3, loc="upper left", bbox_to_anchor=(0, -0.12))
     fig.tight_layout()
     return fig
+
+
+def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float = 0.85):
+    """Leaderboard (:mod:`vehicle_observers_papers.leanza_2021.leaderboard`): one panel per
+    dataset, $v_y$ RMSE of every estimator relative to the open-loop linear bicycle on that
+    dataset (log scale; hatched: not causal), with the plant targets ``open_loop`` (dotted)
+    and ``linear_kf`` x the ``linear-kf`` row (dashed)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
+
+    ol = {r["dataset"]: r["rmse_vy"] for r in table if r["observer"] == "open-loop-linear"}
+    ds, obs = _groups([r for r in table if r["dataset"] in ol])
+    fig, axes = plt.subplots(1, len(ds), figsize=(2.6 * len(ds) + 2.2, 0.28 * len(obs) + 1.6),
+                             sharey=True, squeeze=False)
+    y = np.arange(len(obs))
+    for a, d in zip(axes[0], ds):
+        rr = {r["observer"]: r for r in table if r["dataset"] == d}
+        for j, o in enumerate(obs):
+            if o in rr:
+                a.barh(j, rr[o]["rmse_vy"] / ol[d], color=color(o, j), height=0.75,
+                       hatch=None if rr[o]["causal"] else "//", edgecolor="white", lw=0)
+        a.axvline(1.0, color="0.6", lw=0.6)
+        if d.startswith("plant_"):
+            a.axvline(open_loop, color=TRUTH, ls=":", lw=1.2, label=f"{open_loop:g} x open loop")
+            if "linear-kf" in rr:
+                a.axvline(linear_kf * rr["linear-kf"]["rmse_vy"] / ol[d], color=TRUTH, ls="--",
+                          lw=1.2, label=f"{linear_kf:g} x linear-kf")
+        a.set_xscale("log")
+        a.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        a.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if v in (0.5, 2, 3) else ""))
+        a.set_title(d.replace("plant_", "plant: "), fontsize=9)
+        a.set_xlabel(r"$v_y$ RMSE / open loop's")
+    axes[0][0].set_yticks(y)
+    axes[0][0].set_yticklabels(obs, fontsize=8)
+    axes[0][0].invert_yaxis()
+    h = next((a for a in axes[0] if a.get_legend_handles_labels()[0]), None)
+    if h is not None:
+        h.legend(fontsize=7, loc="lower right")
+    fig.suptitle("Leaderboard: v_y RMSE relative to the open-loop linear bicycle "
+                 "(hatched: not causal; dotted / dashed: targets)", fontsize=10)
+    return fig

@@ -14,10 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 from vehicle_observers import estimation as EST
+from vehicle_observers.baselines.peers import open_loop_linear  # also this module's name for it
 from vehicle_observers.core.metrics import rmse
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import kalman_runs as KR
 from vehicle_observers.models.vehicle import load_vehicle
+
+# the plant car's vehicle file, shared with the leaderboard (also this module's name for it)
+from vehicle_observers_papers.leanza_2021.leaderboard import plant_vehicle
 
 #: estimators run on the plant (besides the open-loop linear bicycle)
 PLANT_OBSERVERS = ("ekf", "ukf", "rts", "interval-coordinates")
@@ -25,32 +29,6 @@ PLANT_OBSERVERS = ("ekf", "ukf", "rts", "interval-coordinates")
 PLANT_MANOEUVRES = ("satory", "sine_with_dwell", "slalom")
 #: v_y RMSE target [m/s] of the best causal estimator on the Revs log
 REVS_TARGET = 0.20
-
-
-def plant_vehicle(rel: float = 0.10, vx_min: float = 5.0, vx_max: float = 40.0):
-    """The plant car's vehicle file as a :class:`~vehicle_observers.models.vehicle.Vehicle`
-    (data-sheet constants, no fitting)."""
-    from vehicle_observers.data import plant
-    from vehicle_observers.models.vehicle import Vehicle
-
-    p = plant.nominal_params()
-    return Vehicle(name=p.name, params=p, uncertainty={"stiffness_rel": rel, "vx_min": vx_min,
-                                                       "vx_max": vx_max, "slip_max_deg": 8.0})
-
-
-def open_loop_linear(log: DriveLog, params) -> np.ndarray:
-    """v_y [m/s] of the open-loop linear bicycle (zero-slip slopes of ``params``' tyres,
-    steady forces) driven by the measured steering and speed, from ``v_y = 0``."""
-    from dataclasses import replace as _replace
-
-    from vehicle_observers.models.lateral import simulate_s1
-    from vehicle_observers.models.tires import LinearTire
-
-    lin = _replace(params, tire_f=LinearTire(params.tire_f.cornering_stiffness),
-                   tire_r=LinearTire(params.tire_r.cornering_stiffness))
-    X = simulate_s1([0.0, float(log.yaw_rate[0])], log.delta, log.vx, log.dt, lin,
-                    exact=False, relaxation=False, substeps=4)
-    return X[:, 0]
 
 
 def plant_stiffness_box(log: DriveLog, params, min_slip_deg: float = 0.5) -> dict:

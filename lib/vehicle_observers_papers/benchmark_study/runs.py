@@ -29,13 +29,29 @@ SLOW = ("ekf-filterpy", "ukf")
 #: estimators that use the Kalman noise tuning
 KALMAN = ("ekf", "ekf-filterpy", "ukf", "rts")
 
-#: references on the Revs log, v_y RMSE [m/s] over the whole run: ``vy = 0`` and the open-loop
-#: linear bicycle are recomputed here (notebook 07 exercise 1, notebook 01; PROVENANCE.md prints
-#: 0.28 m/s for the latter); the publishing repository's Kalman filter and the offline factor
-#: graph are not derived in this repository and their source is not recorded (PROVENANCE.md does
-#: not print them). Notebook 07's real-log target (0.24 m/s) is chosen from the factor graph's.
-REVS_REFERENCES = {"vy = 0": 0.743, "their KF (linear bicycle, r + a_y)": 0.350,
-                   "open-loop linear bicycle": 0.282, "offline factor graph": 0.242}
+#: references on the Revs log, registry name -> label: the two estimators published with the log
+#: (MBDS/sideslip-angle-vehicle-estimation, Leanza et al. 2021, re-implemented in
+#: :mod:`vehicle_observers.baselines.peers`) and the two baselines; scored by
+#: :func:`revs_references` (PROVENANCE.md prints 0.28 m/s for the open-loop linear bicycle)
+REVS_REFERENCE_ESTIMATORS = {"vy-zero": "vy = 0",
+                             "mbds-kf": "their KF (linear bicycle, r + a_y)",
+                             "open-loop-linear": "open-loop linear bicycle",
+                             "mbds-fg": "their offline factor graph (batch)"}
+
+
+def revs_references() -> list[dict]:
+    """The rows of :data:`REVS_REFERENCE_ESTIMATORS` on the whole Revs log, scored by the
+    leaderboard (:func:`vehicle_observers_papers.leanza_2021.leaderboard.score_row`): ``{"estimator"
+    (label), "observer" (registry name), "causal", "rmse_vy" [m/s], "rmse_beta_deg"}``."""
+    from vehicle_observers_papers.leanza_2021 import leaderboard as LB
+
+    table, errors = LB.rows(LB.datasets(manoeuvres=()), observers=tuple(REVS_REFERENCE_ESTIMATORS))
+    if errors:
+        raise RuntimeError("Revs references: " + "; ".join(errors))
+    by = {r["observer"]: r for r in table}
+    return [{"estimator": label, "observer": o, "causal": by[o]["causal"],
+             "rmse_vy": by[o]["rmse_vy"], "rmse_beta_deg": by[o]["rmse_beta_deg"]}
+            for o, label in REVS_REFERENCE_ESTIMATORS.items()]
 
 
 def datasets(seed: int = 0, quick: bool = False) -> dict[str, tuple[DriveLog, str, np.ndarray]]:
