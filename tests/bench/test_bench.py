@@ -53,7 +53,7 @@ def test_leaderboard_files(res, tmp_path):
     from vehicle_observers_papers.leanza_2021 import leaderboard as LB
 
     table = [{"dataset": "plant_x", "observer": o, "causal": True, "rmse_vy": v,
-              "rmse_beta_deg": 10 * v} for o, v in (("open-loop-linear", 0.1), ("linear-kf", 0.07),
+              "rmse_beta_deg": 10 * v} for o, v in (("open-loop-linear", 0.1), ("linear-kf-ml", 0.07),
                                                     ("vy-zero", 0.3), ("mbds-kf", 0.09))]
     tg = LB.targets(table)
     paths = writers.write_outputs(res, tmp_path, leaderboard=(table, tg, ["plant_x/x: n/a"]))

@@ -131,7 +131,7 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
     """Leaderboard (:mod:`vehicle_observers_papers.leanza_2021.leaderboard`): one panel per
     dataset, $v_y$ RMSE of every estimator relative to the open-loop linear bicycle on that
     dataset (log scale; hatched: not causal), with the plant targets ``open_loop`` (dotted)
-    and ``linear_kf`` x the ``linear-kf`` row (dashed)."""
+    and ``linear_kf`` x the ``linear-kf-ml`` row (dashed)."""
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter
 
@@ -149,9 +149,9 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
         a.axvline(1.0, color="0.6", lw=0.6)
         if d.startswith("plant_"):
             a.axvline(open_loop, color=TRUTH, ls=":", lw=1.2, label=f"{open_loop:g} x open loop")
-            if "linear-kf" in rr:
-                a.axvline(linear_kf * rr["linear-kf"]["rmse_vy"] / ol[d], color=TRUTH, ls="--",
-                          lw=1.2, label=f"{linear_kf:g} x linear-kf")
+            if "linear-kf-ml" in rr:
+                a.axvline(linear_kf * rr["linear-kf-ml"]["rmse_vy"] / ol[d], color=TRUTH, ls="--",
+                          lw=1.2, label=f"{linear_kf:g} x linear-kf-ml")
         a.set_xscale("log")
         a.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         a.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if v in (0.5, 2, 3) else ""))

@@ -193,8 +193,8 @@ SOURCES = {
                  "vehicle file (no measurement feedback) by a clear margin adds nothing; 0.8 as that margin, "
                  "the one of notebook 07's plant section (no reason for 0.8 itself recorded)",
     "linear_kf": "chosen here: a model term or a peer is worth its cost only if it beats the plain linear KF "
-                 "on the same vehicle file (linear-kf) by a clear margin; 0.85 as that margin (no reason for "
-                 "0.85 itself recorded)",
+                 "on the same vehicle file (linear-kf-ml) by a clear margin; 0.85 as that margin "
+                 "(no reason for 0.85 itself recorded)",
     "revs_vy": "chosen here: a causal estimator clearly below the 0.242 m/s of the MBDS batch factor graph "
                "(offline, row mbds-fg); 0.20 m/s as in benchmark_study.plant_study.REVS_TARGET",
     "revs_beta_vs_fg": "chosen here: the peers' own metric (sideslip RMSE in degrees over every sample) "
@@ -238,7 +238,7 @@ def metrics(table: list[dict], prefix: str = "lb") -> dict:
             continue
         k = f"{prefix}_{_key(ds)}"
         out[f"{k}_best_causal_rmse_vy"] = (v, "m/s", best)
-        for ref, name in (("open-loop-linear", "open_loop"), ("linear-kf", "linear_kf"),
+        for ref, name in (("open-loop-linear", "open_loop"), ("linear-kf-ml", "linear_kf"),
                           ("vy-zero", "vy_zero")):
             if ref in rr:
                 out[f"{k}_best_over_{name}"] = (v / rr[ref]["rmse_vy"], "", f"{best} / {ref}")
