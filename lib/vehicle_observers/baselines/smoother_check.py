@@ -123,7 +123,7 @@ def ljung_box(x, lags: int = WHITENESS_LAGS) -> dict:
     c0 = float(x @ x) / n
     rho = np.array([float(x[:-k] @ x[k:]) / n / c0 for k in range(1, lags + 1)])
     Q = float(n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1))))
-    from scipy.stats import chi2   # here: scipy.stats costs 0.5 s of every command's start-up
+    from scipy.stats import chi2  # here: scipy.stats costs 0.5 s of every command's start-up
 
     p = float(chi2.sf(Q, lags))
     return {"Q": Q, "p": p, "rho": rho, "max_abs_rho": float(np.abs(rho).max()),

@@ -24,20 +24,36 @@ the process, so ``adaptive-ekf`` and ``fusion-interval`` on the same log select 
 from __future__ import annotations
 
 import hashlib
+import importlib
 import time
 from dataclasses import replace
 
 import numpy as np
 
-from vehicle_observers.baselines import adaptive as AD
-from vehicle_observers.baselines import fusion as FU
-from vehicle_observers.baselines import peers as PE
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import segments
-from vehicle_observers.estimation import selection as SE
 from vehicle_observers.estimation.registry import estimator
 from vehicle_observers.models.tires import LinearTire
+
+
+class _OnUse:
+    """A module imported on first use: listing the estimators (every command's start-up)
+    does not pay for the filters' numba modules and the selection's imports."""
+
+    def __init__(self, name: str):
+        self._name, self._mod = name, None
+
+    def __getattr__(self, attr):
+        if self._mod is None:
+            self._mod = importlib.import_module(self._name)
+        return getattr(self._mod, attr)
+
+
+AD = _OnUse("vehicle_observers.baselines.adaptive")
+FU = _OnUse("vehicle_observers.baselines.fusion")
+PE = _OnUse("vehicle_observers.baselines.peers")
+SE = _OnUse("vehicle_observers.estimation.selection")
 
 _SELECTIONS: dict[str, SE.Selection] = {}
 
@@ -58,11 +74,11 @@ def linear_vehicle(vehicle):
                                            tire_r=LinearTire(p.tire_r.cornering_stiffness)))
 
 
-def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=AD.TERM_NAMES,
+def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=None,
                   maxiter: int = 250) -> tuple[SE.Selection, float]:
     """The (cached) :func:`selection.select` of ``log``; ``linear``: no term, linear tyres
     (the ``linear-kf-ml`` tuning). Returns (selection, seconds spent now)."""
-    cands = () if linear else tuple(candidates)
+    cands = () if linear else tuple(AD.TERM_NAMES if candidates is None else candidates)
     key = _key(log, vehicle, f"{linear}{cands}{maxiter}")
     if key in _SELECTIONS:
         return _SELECTIONS[key], 0.0
@@ -87,7 +103,7 @@ def _columns(X, std, log, vehicle) -> dict:
 
 def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused=None,
                   progress=None, max_gap=segments.MAX_GAP_S, margin: float = 0.0,
-                  candidates=AD.TERM_NAMES, maxiter: int = 250):
+                  candidates=None, maxiter: int = 250):
     sel, ssec = selection_for(log, vehicle, linear, candidates, maxiter)
     veh = linear_vehicle(vehicle) if linear else vehicle
     use_ay = sel.use_ay
@@ -121,8 +137,9 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
            "innovations; v_y std and an identifiability verdict",
            optional_columns=("ay_mps2",), paper="this library")
 def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
-                 candidates=AD.TERM_NAMES, maxiter: int = 250, **_):
-    """``candidates``: the terms the selection may add; ``maxiter``: Nelder-Mead iterations
+                 candidates=None, maxiter: int = 250, **_):
+    """``candidates``: the terms the selection may add (default: every term,
+    ``adaptive.TERM_NAMES``); ``maxiter``: Nelder-Mead iterations
     per tuning."""
     return _run_adaptive(log, vehicle, "adaptive-ekf", progress=progress, max_gap=max_gap,
                          candidates=candidates, maxiter=maxiter)
