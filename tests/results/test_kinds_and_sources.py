@@ -117,7 +117,8 @@ def test_reproduction_counts_paper_claims_apart_from_the_other_kinds(tmp_path):
     paper = text.split("\n## Paper claims\n")[1].split("\n## Benchmark targets\n")[0]
     assert "smoother" not in paper and "data check" not in paper and "| fit |" in paper
     row = next(ln for ln in text.splitlines() if ln.startswith("| P | smoother |"))
-    assert "| 1.002 |" in row and "| paper: RTS 1965 |" in row   # tie shown, and the source
+    assert "| 1.002 |" in row and row.endswith("| [d02.1] |")   # tie shown; details below
+    assert "  - threshold from: paper: RTS 1965" in text.split("- [d02.1] rule:")[1].splitlines()[1]
     assert "| 0.214 |" in next(ln for ln in text.splitlines() if "| target |" in ln)
     assert "claims: 2 paper claims, 1 data check." in text
 
