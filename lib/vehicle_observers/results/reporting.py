@@ -252,6 +252,19 @@ class Report:
         """Where :meth:`write` writes ``metrics.json``."""
         return self.dir / "metrics.json"
 
+    def metric_table(self, names, digits: int = 3, title: str = ""):
+        """Table of recorded metrics for a reader: one row per name with its description (the
+        metric's note, else its name), value and unit, so no internal key name is shown alone."""
+        from vehicle_observers.results.tables import show_table
+
+        rows = []
+        for n in names:
+            if n not in self.metrics:
+                raise KeyError(f"metric_table: no metric {n!r} recorded yet")
+            m = self.metrics[n]
+            rows.append({"quantity": m["note"] or n, "value": m["value"], "unit": m["unit"] or "-"})
+        return show_table(rows, ["quantity", "value", "unit"], digits, title)
+
     def table(self, rows, columns=None, digits: int = 3):
         """Show rows (list of dicts) as a rounded HTML table in a notebook (text elsewhere)."""
         from vehicle_observers.results.tables import show_table

@@ -1,0 +1,228 @@
+"""Teaching helpers of the notebooks: exercise checkers, live figures, animations.
+
+Exercises
+---------
+Every exercise of a notebook is three cells, right after the section it practises:
+
+1. a markdown cell starting ``**Exercise N.**`` (the task, with the paper's equation numbers);
+2. a code cell tagged ``exercise``: a stub the student fills (``...  # your code here``) ending
+   with a :func:`check` call;
+3. a code cell tagged ``solution`` with its source hidden in JupyterLab (cell metadata
+   ``jupyter.source_hidden``): a worked solution ending with the same :func:`check` call.
+
+:func:`check` compares an answer with the expected one (computed independently in the
+notebook, e.g. from the library or a closed form) and shows one line: ``correct``, ``not yet``
+(with a hint) or ``not attempted`` (the stub's ``...``). It never raises, so Run All goes
+through a notebook whose stubs are still empty; the tests assert that every stub cell says
+``not attempted`` and every solution cell ``correct`` (:data:`RESULTS` keeps the outcomes).
+
+Live figures and animations
+---------------------------
+:func:`live_figure` wraps a drawing function in ipywidgets sliders (``continuous_update=False``)
+and redraws the figure on every move; it is live in quick mode too (short horizons are the
+caller's business). :func:`animation` turns a matplotlib figure and an update function into an
+HTML5/JavaScript player (``FuncAnimation.to_jshtml``) that plays in JupyterLab and in the
+exported HTML, without a kernel.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+#: marks of the three outcomes (the tests look for these words in the output)
+CORRECT, WRONG, EMPTY = "correct", "not yet", "not attempted"
+
+#: ``{exercise key: outcome}`` of the :func:`check` calls of this kernel (last call wins)
+RESULTS: dict[str, str] = {}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What :func:`check` found: ``key``, ``status`` (:data:`CORRECT`, :data:`WRONG`,
+    :data:`EMPTY`) and the message shown."""
+
+    key: str
+    status: str
+    message: str
+
+    @property
+    def ok(self) -> bool:
+        return self.status == CORRECT
+
+    def _repr_html_(self) -> str:
+        colour = {CORRECT: "#1a7f37", WRONG: "#b35900", EMPTY: "#57606a"}[self.status]
+        mark = {CORRECT: "&#10004;", WRONG: "&#10008;", EMPTY: "&#9675;"}[self.status]
+        return (f'<div class="vo-check" data-status="{self.status}" style="color:{colour}">'
+                f"{mark} <b>Exercise {html.escape(self.key)}</b>: {html.escape(self.message)}</div>")
+
+    def __repr__(self) -> str:
+        return f"Exercise {self.key}: {self.message}"
+
+
+def _is_empty(answer) -> bool:
+    return answer is None or answer is Ellipsis or (
+        isinstance(answer, (tuple, list)) and any(a is None or a is Ellipsis for a in answer))
+
+
+def _compare(got, want, rtol: float, atol: float) -> tuple[bool, str]:
+    if isinstance(want, (bool, np.bool_, str)) or want is None:
+        return got == want, f"expected {want!r}, got {got!r}"
+    if isinstance(want, dict):
+        if not isinstance(got, dict) or set(got) != set(want):
+            return False, f"expected a dict with keys {sorted(want)}"
+        for k in want:
+            ok, why = _compare(got[k], want[k], rtol, atol)
+            if not ok:
+                return False, f"[{k!r}] {why}"
+        return True, ""
+    try:
+        g = np.asarray(got, dtype=float)
+        w = np.asarray(want, dtype=float)
+    except (TypeError, ValueError):
+        return False, f"expected a number or an array like {np.shape(want)}, got {type(got).__name__}"
+    if g.shape != w.shape:
+        return False, f"expected shape {w.shape}, got {g.shape}"
+    if not np.all(np.isfinite(g)):
+        return False, "the answer has NaN or infinite entries"
+    ok = bool(np.allclose(g, w, rtol=rtol, atol=atol))
+    if ok:
+        return True, ""
+    err = np.max(np.abs(g - w) / np.maximum(np.abs(w), atol if atol > 0 else 1e-300))
+    return False, f"off by {err:.2g} (relative) from the expected value"
+
+
+def check(key: str, answer, expected, *, hint: str, rtol: float = 1e-3, atol: float = 0.0,
+          show: bool = True) -> Outcome | None:
+    """Grade exercise ``key`` (e.g. ``"03.2"``): ``answer`` against ``expected``.
+
+    ``answer`` may be a value, an array, a dict of them, or a callable taking no argument (called
+    here, so an exception in the student's code becomes a ``not yet`` line with its message).
+    ``...``/``None`` (also inside a tuple) means the stub is still empty. Numbers are compared with
+    ``numpy.allclose(rtol, atol)``; bools and strings exactly. ``hint``: one sentence shown when
+    the answer is wrong. Displays one line and returns ``None`` in a notebook (``show=True``),
+    else the :class:`Outcome`; the outcome is also kept in :data:`RESULTS`."""
+    if callable(answer):
+        try:
+            answer = answer()
+        except NotImplementedError:
+            answer = None
+        except Exception as exc:  # the student's code: report it, never stop Run All
+            out = Outcome(key, WRONG, f"your code raised {type(exc).__name__}: {exc}. Hint: {hint}")
+            return _finish(out, show)
+    if _is_empty(answer):
+        out = Outcome(key, EMPTY, "fill in the cell above (replace ...), then run it again")
+    else:
+        ok, why = _compare(answer, expected, rtol, atol)
+        out = Outcome(key, CORRECT, "correct") if ok else Outcome(key, WRONG, f"{why}. Hint: {hint}")
+    return _finish(out, show)
+
+
+def _finish(out: Outcome, show: bool):
+    RESULTS[out.key] = out.status
+    if not show:
+        return out
+    try:
+        from IPython.display import display
+    except ImportError:  # pragma: no cover - IPython comes with the notebooks
+        print(repr(out))
+        return None
+    display(out)
+    return None
+
+
+# ----------------------------------------------------------------------- live figures --------
+
+def slider(value: float, lo: float, hi: float, step: float, description: str, integer: bool = False):
+    """An ipywidgets slider that updates on release (``continuous_update=False``)."""
+    import ipywidgets as w
+
+    cls = w.IntSlider if integer else w.FloatSlider
+    return cls(value=value, min=lo, max=hi, step=step, description=description,
+               continuous_update=False, style={"description_width": "initial"},
+               layout=w.Layout(width="420px"))
+
+
+def live_figure(draw: Callable, **sliders):
+    """Show ``draw(**values)`` (a function that builds and returns a matplotlib figure) under
+    the given ipywidgets ``sliders`` (name -> widget, e.g. from :func:`slider`), redrawn on every
+    move. Shown at once (also under papermill, with the initial values); returns ``None``.
+
+    The figure is shown as a PNG inside an ``Output`` widget, so the image changes in the page
+    when a slider moves (what the browser test checks)."""
+    import ipywidgets as w
+    import matplotlib.pyplot as plt
+    from IPython.display import display
+
+    out = w.Output()
+
+    def redraw(**values):
+        with out:
+            out.clear_output(wait=True)
+            fig = draw(**values)
+            if fig is not None:
+                display(fig)
+                plt.close(fig)
+
+    controls = w.interactive(redraw, **sliders)
+    controls.children[-1].layout.display = "none"  # interactive's own (empty) output area
+    display(w.VBox([w.HBox(list(controls.children[:-1])), out],
+                   layout=w.Layout(border="1px solid #d0d7de", padding="4px")))
+    redraw(**{k: s.value for k, s in sliders.items()})
+    return None
+
+
+# ----------------------------------------------------------------------- animations ----------
+
+def animation(fig, update: Callable[[int], object], frames: int, interval_ms: int = 80,
+              dpi: int = 60):
+    """An HTML5/JavaScript player of ``frames`` frames of ``fig`` (``update(i)`` redraws frame
+    ``i``), as an ``IPython.display.HTML`` object: it plays in JupyterLab and in the exported
+    HTML without a kernel. ``fig`` is closed (so it is not shown a second time). Keep ``frames``
+    x figure size small: every frame is an embedded PNG (``dpi``)."""
+    import matplotlib.pyplot as plt
+    from IPython.display import HTML
+    from matplotlib import animation as anim
+
+    if frames < 2:
+        raise ValueError(f"animation: frames must be >= 2, got {frames}")
+    fig.set_dpi(dpi)
+    a = anim.FuncAnimation(fig, update, frames=frames, interval=interval_ms, blit=False)
+    page = a.to_jshtml(fps=max(1, round(1000 / interval_ms)), default_mode="once")
+    plt.close(fig)
+    return HTML(_offline_player(page))
+
+
+#: the player's button icons as text glyphs (matplotlib's page loads Font Awesome from a CDN,
+#: which an offline page or a blocked network would leave as blank buttons)
+_ICONS = {"fa-play": "\u25b6", "fa-pause": "\u23f8", "fa-fast-backward": "\u23ee",
+          "fa-fast-forward": "\u23ed", "fa-step-backward": "\u25c0\u2502",
+          "fa-step-forward": "\u2502\u25b6", "fa-minus": "\u2212", "fa-plus": "+"}
+
+
+def _offline_player(page: str) -> str:
+    """``page`` without its external stylesheet link, the icons drawn as text."""
+    import re
+
+    page = re.sub(r"<link[^>]*font-awesome[^>]*>", "", page)
+    css = "".join(f'.anim-buttons .{k}:before{{content:"{v}";font-style:normal}}'
+                  for k, v in _ICONS.items())
+    return f"<style>{css}</style>\n{page}"
+
+
+def frame_indices(n_samples: int, frames: int) -> np.ndarray:
+    """``frames`` sample indices spread over ``n_samples`` (first and last included), for
+    animations that reveal a trajectory progressively."""
+    if n_samples < 1 or frames < 2:
+        raise ValueError(f"frame_indices: need n_samples >= 1 and frames >= 2, got "
+                         f"{n_samples}, {frames}")
+    return np.unique(np.round(np.linspace(1, n_samples, frames)).astype(int))
+
+
+def reading_time(words: int, code_cells: int) -> int:
+    """Reading time [min] of a notebook: 200 words a minute plus one minute per code cell."""
+    return math.ceil(words / 200 + code_cells)
