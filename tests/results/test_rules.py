@@ -136,3 +136,13 @@ def test_tables_round_and_render():
     assert "0.304" in repr(t)
     mt = metric_table({"a": 1.23456, "b": [1, 2]}, digits=2)
     assert "1.2" in repr(mt) and "[1, 2]" in repr(mt)
+
+
+def test_not_comparable_needs_its_reason_and_says_it():
+    from vehicle_observers.results.rules import Rule, RuleError
+
+    r = Rule.not_comparable("x", paper="x = 1", because="the reconstruction fixes x")
+    assert r.judge({"x": 0.3}).verdict == "not comparable"
+    assert "not comparable: the reconstruction fixes x" in r.text()
+    with pytest.raises(RuleError, match="because"):
+        Rule.not_comparable("x", paper="x = 1", because="")

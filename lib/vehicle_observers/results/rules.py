@@ -10,6 +10,8 @@ A claim of a paper is judged by a :class:`Rule`: an expression over the run's me
 * ``reproduced`` holds -> **reproduced**; else ``partly`` holds -> **partly**; else **differs**.
 * ``Rule.no_number(value, paper)`` -> **not comparable** (the paper prints no number or
   behaviour to compare with; the value is still reported).
+* ``Rule.not_comparable(value, paper, because)`` -> **not comparable** although the paper has a
+  number: ``because`` says why this reproduction cannot test it.
 * ``informative`` (optional) fails -> the verdict is qualified "holds but proves little"
   (e.g. a bound three orders of magnitude above the error).
 * ``source``: where the thresholds come from, ``"paper: <quote or equation>"`` or
@@ -120,6 +122,9 @@ class Rule:
     informative: str | None = None
     digits: int = 3
     source: str = ""
+    #: why the paper's claim cannot be compared here although it has a number (e.g. the
+    #: reconstruction fixes the compared quantity); set by :meth:`not_comparable`
+    because: str | None = None
 
     def __post_init__(self):
         for e in (self.value, self.reproduced, self.partly, self.informative):
@@ -134,6 +139,15 @@ class Rule:
     def no_number(cls, value: str, paper: str, digits: int = 3, source: str = "") -> Rule:
         """The paper gives no number or behaviour to test: verdict "not comparable"."""
         return cls(value=value, reproduced=None, paper=paper, digits=digits, source=source)
+
+    @classmethod
+    def not_comparable(cls, value: str, paper: str, because: str, digits: int = 3) -> Rule:
+        """The paper gives a number, but this reproduction cannot test it (``because``: e.g. the
+        reconstruction of an unprinted quantity fixes the compared value by construction):
+        verdict "not comparable", the value still reported."""
+        if not because:
+            raise RuleError(f"rule {value!r}: not_comparable needs the reason (because=...)")
+        return cls(value=value, reproduced=None, paper=paper, digits=digits, because=because)
 
     def thresholds(self, metrics: dict) -> list[float]:
         """The numbers ``value`` is compared with in the conditions: in every comparison with
@@ -162,6 +176,8 @@ class Rule:
     def text(self) -> str:
         """The rule as written in REPRODUCTION.md."""
         if self.reproduced is None:
+            if self.because:
+                return f"`{self.value}`; not comparable: {self.because}"
             return f"`{self.value}`; no paper number to test"
         parts = [f"`{self.value}`; reproduced if `{self.reproduced}`"]
         if self.partly:
