@@ -426,7 +426,9 @@ def _inv3(A):
     det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
     scale = A[0, 0] * A[1, 1] * A[2, 2]
     if not (abs(det) > 1e-12 * abs(scale)) or scale == 0.0:
-        return np.linalg.pinv(A)
+        # C-contiguous like the cofactor branch, so the caller's ``@`` is typed on contiguous
+        # arrays (numba's pinv returns another layout; mixed layouts are the slow path)
+        return np.ascontiguousarray(np.linalg.pinv(A))
     out = np.empty((3, 3))
     out[0, 0] = c00 / det
     out[1, 0] = c01 / det
