@@ -23,7 +23,8 @@ def test_palette_is_the_colour_blind_style_and_the_default_cycle():
 def test_every_estimator_colour_comes_from_the_palette_and_differs():
     for name, c in P.COLORS.items():
         assert c in P.PALETTE or c == P.TRUTH, name
-    bench = ("ekf", "ekf-filterpy", "ukf", "rts", "ts-yacine2015", "interval-ifqir2017")
+    bench = ("ekf", "ekf-filterpy", "ukf", "rts", "ts-yacine2015", "interval-ifqir2017",
+             "interval-coordinates", "open-loop-linear")
     assert len({P.color(n) for n in bench}) == len(bench)
     for prefix in ("ichalal2011/", "elyoussfi2020/"):
         mine = [c for n, c in P.COLORS.items() if n.startswith(prefix)]

@@ -33,6 +33,7 @@ COLORS: dict[str, str] = {
     # registered estimators (benchmark, notebook 07)
     "ekf": PALETTE[1], "ekf-filterpy": PALETTE[0], "ukf": PALETTE[2], "rts": PALETTE[3],
     "ts-yacine2015": PALETTE[4], "interval-ifqir2017": PALETTE[5],
+    "interval-coordinates": PALETTE[8], "open-loop-linear": TRUTH,
     # Ichalal 2011 (notebook 04): DMVT observer without / with the pole region (35)-(36),
     # filterpy EKF and UKF on the bicycle model (25)
     "ichalal2011/noreg": PALETTE[5], "ichalal2011/reg": PALETTE[0], "ichalal2011/ekf": TRUTH,

@@ -21,18 +21,83 @@ def _groups(rows):
             list(dict.fromkeys(r["observer"] for r in rows)))
 
 
-def fig_rmse(rows, target: float = 0.24):
-    """$v_y$ RMSE per dataset and observer (log scale), the real-log target as a dotted line;
-    legend beside the axes."""
+#: readable names of the benchmark's datasets (tick labels)
+DATASET_LABELS = {"satory_n1": "Satory lap\nnoise x1", "satory_n3": "Satory lap\nnoise x3",
+                  "swd": "sine with dwell\n(17 m/s, 7 deg slip)", "revs": "Revs 250 LM\n(real log)"}
+
+
+def _same_bars(rows, obs):
+    """``{kept: [dropped, ...]}``: observers whose v_y RMSE equals a previous one's on every
+    dataset (e.g. ``interval-coordinates`` = ``interval-ifqir2017`` when its design keeps
+    ``kappa = 0``): one bar is drawn for them, labelled with both names."""
+    val = {o: {r["dataset"]: r.get("rmse_vy") for r in rows if r["observer"] == o} for o in obs}
+    same: dict[str, list[str]] = {}
+    dropped = set()
+    for j, o in enumerate(obs):
+        if o in dropped:
+            continue
+        for p in obs[j + 1:]:
+            if p not in dropped and val[p] and val[p].keys() == val[o].keys() and all(
+                    np.isclose(val[p][d], val[o][d], rtol=1e-9, atol=0) for d in val[o]):
+                same.setdefault(o, []).append(p)
+                dropped.add(p)
+    return same, dropped
+
+
+def fig_rmse(rows, target: float = 0.24, target_dataset: str = "revs"):
+    """$v_y$ RMSE per dataset and observer: the emulated runs (log scale) and the real log
+    ``target_dataset`` (linear scale, the accuracy target ``target`` [m/s] drawn there only).
+    Rows scored on a shorter window than the others of their dataset (the pure-Python filterpy
+    rows, ``samples`` column) are hatched and their legend entry says so; observers with the
+    same RMSE on every dataset share one bar."""
     import matplotlib.pyplot as plt
 
     ds, obs = _groups(rows)
-    fig, ax = plt.subplots(figsize=(10, 4.2))
-    grouped_bars(ax, ds, obs, _row_value(rows, "rmse_vy"), log=True)
-    ax.set_ylabel(r"$v_y$ RMSE [m/s]")
-    ax.set_xlabel("dataset")
-    ax.axhline(target, color=TRUTH, ls=":", lw=0.8, label=f"real-log target {target:g} m/s")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    same, dropped = _same_bars(rows, obs)
+    obs = [o for o in obs if o not in dropped]
+    full = {d: max(r["samples"] for r in rows if r["dataset"] == d) for d in ds}
+    windowed = {(r["dataset"], r["observer"]) for r in rows if r["samples"] < full[r["dataset"]]}
+    win_n = sorted({r["samples"] for r in rows if (r["dataset"], r["observer"]) in windowed})
+    emu = [d for d in ds if d != target_dataset]
+    real = [d for d in ds if d == target_dataset]
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.2),
+                             gridspec_kw={"width_ratios": [max(len(emu), 1), max(len(real), 1) + 0.4]})
+    w = 0.8 / max(len(obs), 1)
+    value = _row_value(rows, "rmse_vy")
+    for ax, group, log in ((axes[0], emu, True), (axes[1], real, False)):
+        for j, o in enumerate(obs):
+            for i, d in enumerate(group):
+                v = value(d, o)
+                if v is None or not np.isfinite(v):
+                    continue
+                hatched = (d, o) in windowed
+                ax.bar(i + j * w, v, w, color=color(o, j), hatch="///" if hatched else None,
+                       edgecolor="white" if hatched else None, lw=0)
+        ax.set_xticks(np.arange(len(group)) + 0.4 - w / 2)
+        ax.set_xticklabels([DATASET_LABELS.get(d, d) for d in group])
+        if log:
+            ax.set_yscale("log")
+        ax.set_ylabel(r"$v_y$ RMSE [m/s]")
+    axes[0].set_title("emulated runs (truth known; log scale)")
+    axes[1].set_title("real log (INS reference)")
+    if real:
+        axes[1].hlines(target, -0.5 * w, 0.8 - 0.5 * w, colors=TRUTH, linestyles=":", lw=1.2,
+                       label=f"Revs target {target:g} m/s (best causal)")
+        axes[1].set_xlim(-0.5, 1.1)
+    handles = []
+    from matplotlib.patches import Patch
+
+    for j, o in enumerate(obs):
+        label = " = ".join([o, *same.get(o, [])])
+        if any(oo == o for _, oo in windowed):
+            label += f" (first {', '.join(f'{n:g}' for n in win_n)} samples)"
+        hatched = any(oo == o for _, oo in windowed)
+        handles.append(Patch(facecolor=color(o, j), hatch="///" if hatched else None,
+                             edgecolor="white" if hatched else color(o, j), label=label))
+    h, lab = axes[1].get_legend_handles_labels()
+    fig.tight_layout(rect=(0, 0, 0.72, 1))
+    fig.legend(handles=handles + h, fontsize=7, loc="upper left", bbox_to_anchor=(0.725, 0.93),
+               borderaxespad=0, title="hatched: scored on a window only", title_fontsize=7)
     return fig
 
 
@@ -52,13 +117,16 @@ def fig_rmse_cost(rows):
 
 
 def fig_revs(log, ests, t_zoom=None):
-    """$v_y$ estimates on the Revs log against the INS reference: the whole run and the
-    zoom ``t_zoom`` [s] (default the first 40 s); interval observers as shaded boxes."""
+    r"""$v_y$ estimates on the Revs log against the INS reference: the whole run (the zoom
+    window shaded), the zoom ``t_zoom`` [s] (default the first 40 s) and the error
+    $\hat v_y - v_y^{INS}$ in the zoom; interval observers as shaded boxes. Legend above the
+    axes (off the data)."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(2, 1, figsize=(10, 6.4))
+    fig, ax = plt.subplots(3, 1, figsize=(10, 7.8), gridspec_kw={"height_ratios": [1.0, 1.1, 0.8]})
     names = [n for n in ("ekf", "ukf", "rts", "interval-ifqir2017") if n in ests]
-    for a, (t0, t1) in zip(ax, ((log.t[0], log.t[-1]), t_zoom or (log.t[0], log.t[0] + 40))):
+    zoom = t_zoom or (log.t[0], log.t[0] + 40)
+    for a, (t0, t1) in zip(ax[:2], ((log.t[0], log.t[-1]), zoom)):
         m = (log.t >= t0) & (log.t <= t1)
         tt, ref = decimate(log.t[m], log.vy[m], max_points=3000)
         for k, n in enumerate(names):
@@ -68,20 +136,36 @@ def fig_revs(log, ests, t_zoom=None):
                 if not mm.any():
                     continue
                 te, v = decimate(e.t[mm], e.columns["vy_mps"][mm], max_points=3000)
+                label = f"{n} (first {len(e.t)} samples)"
             else:
                 te, v = decimate(log.t[m], e.columns["vy_mps"][m], max_points=3000)
+                label = n
             if "vy_lo_mps" in e.columns:
                 _, lo, hi = decimate(log.t[m], e.columns["vy_lo_mps"][m],
                                      e.columns["vy_hi_mps"][m], max_points=3000)
-                a.fill_between(te, lo, hi, color=color(n, k), alpha=0.15, lw=0,
-                               label=f"{n} [lo, hi]")
+                a.fill_between(te, lo, hi, color=color(n, k), alpha=0.2, lw=0,
+                               label=f"{n} $[\\underline{{v}}_y, \\overline{{v}}_y]$")
             else:
-                a.plot(te, v, color=color(n, k), lw=0.8, label=n)
+                a.plot(te, v, color=color(n, k), lw=0.9, label=label)
         a.plot(tt, ref, color=TRUTH, lw=0.9, label="INS reference")
-        a.set_ylabel("v_y [m/s]")
-    ax[0].legend(ncol=5, fontsize=7, loc="upper right")
-    ax[1].set_xlabel("t [s]")
-    ax[0].set_title("Revs 250 LM: lateral velocity estimates")
+        a.set_ylabel(r"$v_y$ [m/s]")
+        a.set_xlabel("t [s]")
+    ax[0].axvspan(*zoom, color="0.85", zorder=0)
+    ax[0].set_title("Revs 250 LM: lateral velocity, whole run (grey: zoom below)", fontsize=9)
+    ax[1].set_title(f"zoom {zoom[0]:g}-{zoom[1]:g} s", fontsize=9)
+    m = (log.t >= zoom[0]) & (log.t <= zoom[1])
+    for k, n in enumerate(names):
+        e = ests[n]
+        if len(e.t) != len(log) or "vy_lo_mps" in e.columns:
+            continue
+        te, err = decimate(log.t[m], e.columns["vy_mps"][m] - log.vy[m], max_points=3000)
+        ax[2].plot(te, err, color=color(n, k), lw=0.9)
+    ax[2].axhline(0.0, color=TRUTH, lw=0.6)
+    ax[2].set_ylabel(r"$\hat v_y - v_y^{INS}$ [m/s]")
+    ax[2].set_xlabel("t [s]")
+    ax[2].set_title("error of the point estimates in the zoom", fontsize=9)
+    ax[0].legend(ncol=5, fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.12), borderaxespad=0)
+    fig.tight_layout()
     return fig
 
 
@@ -107,22 +191,37 @@ def fig_losses(loss_rows):
     return fig
 
 
-def fig_plant(rows: list[dict]):
-    """Bar chart of v_y RMSE [m/s] per plant manoeuvre and estimator, with the target line
-    0.8 x open loop drawn per manoeuvre (for notebook 07 / the closing note)."""
+def fig_plant(rows: list[dict], margin: float = 0.8):
+    """$v_y$ RMSE [m/s] per estimator on each plant manoeuvre, one panel (and y scale) per
+    manoeuvre: the open-loop linear bicycle is the hollow black reference bar, the target
+    ``margin`` x its RMSE the dotted line; each bar carries its value (3 significant digits,
+    more when two bars of a panel would print the same)."""
     import matplotlib.pyplot as plt
 
     ds, obs = _groups(rows)
-    fig, ax = plt.subplots(figsize=(8, 3.8))
-    w = grouped_bars(ax, ds, obs, _row_value(rows, "rmse_vy"),
-                     labels=[d.replace("plant_", "") for d in ds])
-    for i, d in enumerate(ds):
-        ol = next(r["rmse_vy"] for r in rows if r["dataset"] == d
-                  and r["observer"] == "open-loop-linear")
-        ax.hlines(0.8 * ol, i - w / 2, i + 0.8 - w / 2, colors=TRUTH, linestyles=":", lw=1)
-    ax.set_ylabel("$v_y$ RMSE [m/s]")
-    ax.set_title("Independent multi-body plant (dotted: target 0.8 x open-loop linear)")
-    ax.legend(fontsize=7, ncol=3, loc="upper left", bbox_to_anchor=(0, -0.12))
+    fig, axes = plt.subplots(1, len(ds), figsize=(3.3 * len(ds) + 0.6, 3.9), squeeze=False)
+    for a, d in zip(axes[0], ds):
+        rr = {r["observer"]: r["rmse_vy"] for r in rows if r["dataset"] == d}
+        names = [o for o in obs if o in rr]
+        vals = [rr[o] for o in names]
+        digits = 3
+        while digits < 6 and len({f"{v:.{digits}g}" for v in vals}) < len(vals):
+            digits += 1
+        for j, o in enumerate(names):
+            ref = o == "open-loop-linear"
+            a.bar(j, rr[o], 0.75, color="white" if ref else color(o, j), edgecolor=TRUTH if ref else
+                  "none", lw=1.2 if ref else 0)
+            a.annotate(f"{rr[o]:.{digits}g}", (j, rr[o]), xytext=(0, 2), textcoords="offset points",
+                       ha="center", va="bottom", fontsize=7)
+        if "open-loop-linear" in rr:
+            a.axhline(margin * rr["open-loop-linear"], color=TRUTH, ls=":", lw=1.2)
+        a.set_xticks(range(len(names)))
+        a.set_xticklabels(names, rotation=35, ha="right", fontsize=7)
+        a.set_ylim(0, 1.18 * max(vals))
+        a.set_title(d.replace("plant_", "").replace("_", " "), fontsize=9)
+    axes[0][0].set_ylabel(r"$v_y$ RMSE [m/s]")
+    fig.suptitle(f"Independent multi-body plant, one scale per manoeuvre (hollow: open-loop linear "
+                 f"bicycle; dotted: target {margin:g} x its RMSE)", fontsize=9)
     fig.tight_layout()
     return fig
 
