@@ -31,10 +31,17 @@ def test_live_campaign_is_the_same_on_one_process_and_two_workers(m):
 
 
 def test_interval_guarantee_holds_where_assumed(m):
-    assert m["guaranteed_runs"] >= 2 and m["guaranteed_enclosure_min"] == 1.0
+    """The paper claim is graded on the paper's observer (interval-ifqir2017) alone; the
+    change-of-coordinates variant has its own target row."""
+    assert m["guaranteed_runs_ifqir2017"] >= 1 and m["guaranteed_enclosure_min_ifqir2017"] == 1.0
+    assert m["guaranteed_runs"] >= m["guaranteed_runs_ifqir2017"]
+    assert m["guaranteed_enclosure_min"] == 1.0
     c = _claims(m)["enclosure 100 % wherever the plant is inside the stiffness box"]
-    assert c["verdict"] == "reproduced"
-    assert c["proves_little"] == (m["guaranteed_runs"] < 10)
+    assert c["kind"] == "paper" and c["verdict"] == "reproduced"
+    assert c["rule_def"]["value"] == "guaranteed_enclosure_min_ifqir2017"
+    assert c["proves_little"] == (m["guaranteed_runs_ifqir2017"] < 10)
+    v = _claims(m)["variant: interval-coordinates encloses 100 % wherever the assumptions hold"]
+    assert v["kind"] == "target" and v["verdict"] == "reproduced"
 
 
 def test_lmi_map_against_the_metzler_bound(m):
@@ -42,15 +49,15 @@ def test_lmi_map_against_the_metzler_bound(m):
     cf, cr = y.params.tire_f.cornering_stiffness, y.params.tire_r.cornering_stiffness
     bound = (cr * y.params.a_r - cf * y.params.a_f) / (cr * y.params.a_r + cf * y.params.a_f)
     assert m["lmi_yacine2015_metzler_bound"] == pytest.approx(bound, rel=1e-3)
-    assert m["exercise_metzler_bound_by_hand"] == pytest.approx(bound, rel=1e-3)
     assert bound - m["lmi_rel_step"] < m["lmi_yacine_k0_max_feasible_rel"] <= bound
     # kappa = 0 certifies the BMW only below its (small) Metzler bound; kappa = 0.1 far beyond
     assert m["lmi_bmw_320i_metzler_bound"] < 0.02
     assert m["lmi.bmw_320i.k0.1.5-40.max_feasible_rel"] > 5 * m["lmi_bmw_320i_metzler_bound"]
     v = _claims(m)
-    assert v["Theorem 2 without a change of coordinates: the Metzler bound"]["verdict"] == "reproduced"
-    assert v["the change of coordinates certifies the BMW beyond the Metzler bound"]["verdict"] == \
-        "reproduced"
+    for item in ("Theorem 2 without a change of coordinates: the Metzler bound",
+                 "the change of coordinates certifies the BMW beyond the Metzler bound"):
+        # analyses of this repository (the paper prints neither number): diagnostics
+        assert v[item]["verdict"] == "reproduced" and v[item]["kind"] == "diagnostic"
 
 
 def test_failures_and_regions(m):
@@ -65,25 +72,61 @@ def test_failures_and_regions(m):
     assert v["verdict"] == want
 
 
-def test_cli_exercise(m):
-    assert m["exercise_first_run_now"] == 64 and m["exercise_second_run_now"] == 0
-    assert m["exercise_other_spec_exit"] == 2
+def test_worked_monte_carlo(m):
+    """The worked Monte Carlo recomputed here from its seed (same draws, the library's EKF),
+    its interval from scipy's Student t."""
+    from dataclasses import replace
+
+    import numpy as np
+    from scipy import stats
+    from vehicle_observers.baselines import kalman as K
+    from vehicle_observers.core.metrics import rmse
+    from vehicle_observers.data.scenarios import sine_with_dwell
+
+    car = load_vehicle("yacine2015").params
+    draws = np.random.default_rng(np.random.SeedSequence(0))
+    e = []
+    for i in range(40):                     # quick mode's mc_runs
+        err = draws.uniform(-0.2, 0.2)
+        log = sine_with_dwell(seed=i)
+        wrong = replace(car, tire_r=replace(car.tire_r, D=car.tire_r.D * (1 + err)))
+        e.append(rmse(K.ekf(log, wrong).vy, log.vy, log.t - log.t[0] > 1.0))
+    e = np.array(e)
+    assert m["mc_mean_rmse_vy"] == pytest.approx(e.mean(), rel=1e-3)
+    lo, hi = stats.t.interval(0.95, len(e) - 1, loc=e.mean(), scale=stats.sem(e))
+    assert m["mc_ci_half_width"] == pytest.approx((hi - lo) / 2, rel=1e-3)
 
 
-def test_claims_and_files(m):
-    doc = m["_doc"]
-    assert len(doc["claims"]) == 8
-    for f in ("error_effect_multibody.png", "error_effect_lpv.png", "conservatism_map.png",
-              "lmi_feasibility.png", "failures.png"):
-        assert (m["_dir"] / f).exists()
+def test_exercises_stubs_and_solutions(m):
+    import re
+
+    nb = nbformat.read(str(m["_executed"]), as_version=4)
+    cells = nb.cells
+
+    def statuses(c):
+        html = "".join("".join(o.get("data", {}).get("text/html", "")) for o in c.get("outputs", []))
+        return re.findall(r'data-status="([^"]+)"', html)
+
+    tasks = [i for i, c in enumerate(cells)
+             if c.cell_type == "markdown" and c.source.startswith("**Exercise")]
+    assert len(tasks) >= 3
+    assert [cells[i].source.split(".")[0] for i in tasks] == \
+        [f"**Exercise {k + 1}" for k in range(len(tasks))]
+    for i in tasks:
+        stub, sol = cells[i + 1], cells[i + 2]
+        assert "exercise" in stub.metadata.get("tags", []) and statuses(stub) == ["not attempted"]
+        assert "solution" in sol.metadata.get("tags", []) and statuses(sol) == ["correct"]
+        assert sol.metadata.get("jupyter", {}).get("source_hidden") is True
 
 
 def test_notebook_teaches():
     nb = nbformat.read(str(repo_root() / "notebooks" / f"{NB}.ipynb"), as_version=4)
     src = [c.source for c in nb.cells]
-    assert "What you will learn" in src[0] and len(src[0].split()) < 300
+    assert "What you will learn" in src[0] and len(src[0].split()) < 400  # with the symbol table
     assert sum("knobs" in c.metadata.get("tags", []) for c in nb.cells) == 1
-    ex = [s for s in src if s.startswith("**Exercise")]
-    sol = [s for s in src if s.startswith("**Solution")]
-    assert len(ex) == 2 and len(sol) == 2
-    assert any(s.startswith("## Appendix") for s in src)
+    assert not any(s.startswith("**Solution") for s in src)
+    assert any("animation" in c.metadata.get("tags", []) for c in nb.cells)
+    heads = [s.splitlines()[0] for s in src if s.startswith("## ")]
+    # the graded claims come last, before the appendix
+    assert heads[-2:] == ["## Reproduction: the paper's claims, graded",
+                          "## Appendix: campaigns on a cluster"]

@@ -150,7 +150,7 @@ def fig_revs(log, ests, t_zoom=None):
         a.plot(tt, ref, color=TRUTH, lw=0.9, label="INS reference")
         a.set_ylabel(r"$v_y$ [m/s]")
         a.set_xlabel("t [s]")
-    ax[0].axvspan(*zoom, color="0.85", zorder=0)
+    ax[0].axvspan(*zoom, color="0.6", alpha=0.25, lw=0, zorder=0)
     ax[0].set_title("Revs 250 LM: lateral velocity, whole run (grey: zoom below)", fontsize=9)
     ax[1].set_title(f"zoom {zoom[0]:g}-{zoom[1]:g} s", fontsize=9)
     m = (log.t >= zoom[0]) & (log.t <= zoom[1])
