@@ -72,6 +72,12 @@ def test_failures_and_regions(m):
     assert v["verdict"] == want
 
 
+def test_command_line_resumes_and_refuses_another_spec(m):
+    # the live spec has 64 simulations; a finished folder computes none; exit 2: another spec
+    assert m["cli_first_run_now"] == m["live_tasks"] == 64 and m["cli_second_run_now"] == 0
+    assert m["cli_other_spec_exit"] == 2
+
+
 def test_worked_monte_carlo(m):
     """The worked Monte Carlo recomputed here from its seed (same draws, the library's EKF),
     its interval from scipy's Student t."""

@@ -224,7 +224,7 @@ def _lmi_metrics(summary: list[dict], points: list[dict]) -> dict:
 
 
 def cli_exercise(spec: dict, work=None) -> dict:
-    """Exercise 1: the command line on ``spec`` twice into one folder (serial engine), then a
+    """The command line on ``spec`` twice into one folder (serial engine), then a
     spec with another seed into the same folder. Returns the simulations each run computed
     (parsed from its summary line) and the exit status of the third."""
     import os
