@@ -60,8 +60,8 @@ def fig_rmse(rows, target: float = 0.24, target_dataset: str = "revs"):
     win_n = sorted({r["samples"] for r in rows if (r["dataset"], r["observer"]) in windowed})
     emu = [d for d in ds if d != target_dataset]
     real = [d for d in ds if d == target_dataset]
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.2),
-                             gridspec_kw={"width_ratios": [max(len(emu), 1), max(len(real), 1) + 0.4]})
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), gridspec_kw={
+        "width_ratios": [max(len(emu), 1), max(len(real), 1) + 0.4, 1.5]})
     w = 0.8 / max(len(obs), 1)
     value = _row_value(rows, "rmse_vy")
     for ax, group, log in ((axes[0], emu, True), (axes[1], real, False)):
@@ -95,9 +95,10 @@ def fig_rmse(rows, target: float = 0.24, target_dataset: str = "revs"):
         handles.append(Patch(facecolor=color(o, j), hatch="///" if hatched else None,
                              edgecolor="white" if hatched else color(o, j), label=label))
     h, lab = axes[1].get_legend_handles_labels()
-    fig.tight_layout(rect=(0, 0, 0.72, 1))
-    fig.legend(handles=handles + h, fontsize=7, loc="upper left", bbox_to_anchor=(0.725, 0.93),
-               borderaxespad=0, title="hatched: scored on a window only", title_fontsize=7)
+    axes[2].axis("off")                      # the legend's own column, off the data
+    axes[2].legend(handles=handles + h, fontsize=7, loc="upper left", borderaxespad=0,
+                   title="hatched: scored on a window only", title_fontsize=7)
+    fig.tight_layout()
     return fig
 
 
@@ -195,7 +196,7 @@ def fig_plant(rows: list[dict], margin: float = 0.8):
     """$v_y$ RMSE [m/s] per estimator on each plant manoeuvre, one panel (and y scale) per
     manoeuvre: the open-loop linear bicycle is the hollow black reference bar, the target
     ``margin`` x its RMSE the dotted line; each bar carries its value (3 significant digits,
-    more when two bars of a panel would print the same)."""
+    more on a bar that would print the same as another bar of its panel)."""
     import matplotlib.pyplot as plt
 
     ds, obs = _groups(rows)
@@ -204,10 +205,11 @@ def fig_plant(rows: list[dict], margin: float = 0.8):
         rr = {r["observer"]: r["rmse_vy"] for r in rows if r["dataset"] == d}
         names = [o for o in obs if o in rr]
         vals = [rr[o] for o in names]
-        digits = 3
-        while digits < 6 and len({f"{v:.{digits}g}" for v in vals}) < len(vals):
-            digits += 1
         for j, o in enumerate(names):
+            digits = 3                       # more only where two bars would print the same
+            while digits < 7 and any(f"{rr[o]:.{digits}g}" == f"{v:.{digits}g}"
+                                     for p, v in rr.items() if p != o and v != rr[o]):
+                digits += 1
             ref = o == "open-loop-linear"
             a.bar(j, rr[o], 0.75, color="white" if ref else color(o, j), edgecolor=TRUTH if ref else
                   "none", lw=1.2 if ref else 0)
