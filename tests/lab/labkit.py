@@ -218,12 +218,14 @@ def lab_problems(name: str, errors: list[str], n_images: int, figures: list[str]
 
 def teaching_problems(name: str, cells: list[dict]) -> list[str]:
     """A teaching notebook has one cell tagged ``knobs`` and at least two markdown cells starting
-    with ``**Exercise`` and as many starting with ``**Solution``. ``cells``: dicts with
+    with ``**Exercise`` and as many solutions: markdown cells starting with ``**Solution`` or
+    code cells tagged ``solution`` (the hidden worked solutions). ``cells``: dicts with
     ``cell_type``, ``source`` and ``tags``."""
     knobs = sum("knobs" in c["tags"] for c in cells)
     md = [c["source"].lstrip() for c in cells if c["cell_type"] == "markdown"]
     ex = sum(s.startswith("**Exercise") for s in md)
-    sol = sum(s.startswith("**Solution") for s in md)
+    sol = sum(s.startswith("**Solution") for s in md) + sum(
+        c["cell_type"] == "code" and "solution" in c["tags"] for c in cells)
     problems = []
     if knobs != 1:
         problems.append(f"{name}: {knobs} cells tagged 'knobs' (want exactly 1)")

@@ -14,6 +14,15 @@ def test_teaching_cells_found():
                    ("markdown", "  **Exercise 2.** Double R.", []),
                    ("markdown", "**Solution 2.** ...", []))
     assert teaching_problems("02", cells) == []
+    hidden = _cells(("code", "n = 3", ["knobs"]),
+                    ("markdown", "**Exercise 1.** Derive the gain.", []),
+                    ("code", "def gain(): ...", ["exercise"]),
+                    ("code", "def gain(): return 2.0", ["solution"]),
+                    ("markdown", "**Exercise 2.** Tune phi.", []),
+                    ("code", "def phi(): ...", ["exercise"]))
+    assert teaching_problems("00", hidden) == ["00: 1 solutions for 2 exercises ('**Solution N.**')"]
+    hidden.append({"cell_type": "code", "source": "def phi(): return 0.1", "tags": ["solution"]})
+    assert teaching_problems("00", hidden) == []
 
 
 def test_missing_teaching_cells_reported():
