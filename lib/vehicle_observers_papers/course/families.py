@@ -78,56 +78,59 @@ class Family:
 
 FAMILIES: tuple[Family, ...] = (
     Family("TS/LMI observer (Yacine 2015)", "01, 02",
-           "v_y, r, F_f, F_r, road curvature kappa",
-           "gyro r, steering delta, speed v_x, camera y_L, psi_L; yaw-drift model, Pacejka "
-           "tyres with relaxation, exact 8-rule TS form",
-           "Theorem 1: exponential error bound (34) with decay rate lambda, once the premise "
+           r"$v_y$, $r$, $F_f$, $F_r$, road curvature $\kappa$",
+           r"gyro $r$, steering $\delta$, speed $v_x$, camera $y_L$, $\psi_L$; yaw-drift model, "
+           "Pacejka tyres with relaxation, exact 8-rule TS form",
+           r"Theorem 1: exponential error bound (34) with decay rate $\lambda$, once the premise "
            "differentiators have converged (ISS in the premise error)",
-           "decay rate lambda, pole disk, differentiator constant L", ("ts-yacine2015",)),
+           r"decay rate $\lambda$, pole disk, differentiator constant $L$", ("ts-yacine2015",)),
     Family("interval observer (Ifqir 2017)", "03, 08",
-           "guaranteed bounds v_y^- <= v_y <= v_y^+, r^- <= r <= r^+",
-           "gyro r, steering delta, speed v_x; LPV bicycle, cornering stiffness in a box "
-           "+-Delta_c, speed bands",
+           r"guaranteed bounds $\underline v_y \le v_y \le \overline v_y$, "
+           r"$\underline r \le r \le \overline r$",
+           r"gyro $r$, steering $\delta$, speed $v_x$; LPV bicycle, cornering stiffness in a box "
+           r"$\pm\Delta_c$, speed bands",
            "enclosure at every time while the truth stays in the box and the noise within its "
            "bound (Theorem 1); ISS width (Theorem 2)",
-           "box half-width Delta_c, speed bands, Metzler shift epsilon_M, gamma",
+           r"box half-width $\Delta_c$, speed bands, Metzler shift $\epsilon_M$, gain $\gamma$",
            ("interval-ifqir2017",)),
     Family("DMVT observer (Ichalal 2011)", "04",
            "the states of an autonomous bicycle (roll angle, roll rate, heading states)",
            "two angle sensors of the bicycle; TS model with unmeasured premises, Jacobian bounds",
            "exponential convergence where the DMVT bounds of the Jacobian hold (LMIs (23)); "
            "poles in the region (35)-(36)",
-           "pole region a, R; number of Jacobian vertices",
+           r"pole region $a$, $R$; number of Jacobian vertices",
            no_vy="a bicycle's roll dynamics, not a car's lateral velocity",
            components=(DMVT,)),
     Family("sliding-mode observer and differentiator (Rabhi 2004, Levant)", "02, 05",
-           "tyre forces F_x, F_y per axle, road profile under each wheel; derivatives of a signal",
-           "v_x, v_y, r, wheel speeds and torques (forces); suspension sensors (road); "
-           "a bound on the (n+1)-th derivative (differentiator)",
+           r"tyre forces $F_x$, $F_y$ per axle, road profile under each wheel; derivatives of a "
+           "signal",
+           r"$v_x$, $v_y$, $r$, wheel speeds and torques (forces); suspension sensors (road); a "
+           r"bound $L$ on the $(n+1)$-th derivative (differentiator)",
            "finite-time reaching of the sliding surfaces, asymptotic force convergence; exact "
            "derivatives in finite time without noise (differentiator)",
-           "switching gains lambda, boundary layer phi, adaptation gain; Lipschitz constant L",
-           no_vy="reads v_y as a measurement (Rabhi 2004 (9)) and estimates forces and road",
+           r"switching gains $\lambda_i$, boundary layer $\phi$, adaptation gain; Lipschitz "
+           r"constant $L$",
+           no_vy=r"reads $v_y$ as a measurement (Rabhi 2004 (9)) and estimates forces and road",
            components=(SMO, HOSMD)),
     Family("unknown-input observer (El Youssfi 2020)", "06",
-           "v_y, r and an actuator + sensor fault f",
-           "gyro r and a second yaw-rate source (wheel speeds), steering, one constant speed; "
-           "uncertain TS lateral model with fuzzy tyres",
-           "the error is decoupled from the model uncertainty; L2 gain gamma from fault rate and "
-           "noise, decay rate lambda (relaxed LMIs)",
-           "decay rate lambda, bound phi on the membership derivatives, slack mu, pole disk",
+           r"$v_y$, $r$ and an actuator + sensor fault $f$",
+           r"gyro $r$ and a second yaw-rate source (wheel speeds), steering $\delta$, one "
+           "constant speed; uncertain TS lateral model with fuzzy tyres",
+           r"the error is decoupled from the model uncertainty; $\mathcal L_2$ gain $\gamma$ from "
+           r"fault rate and noise, decay rate $\lambda$ (relaxed LMIs)",
+           r"decay rate $\lambda$, bound $\varphi$ on the membership rates, slack $\mu$, pole disk",
            no_vy="needs two yaw-rate sources at one constant speed: not registered for drive logs",
            components=(UIO,)),
     Family("EKF / UKF / RTS smoother (baselines)", "07, 08",
-           "v_y, r, a_y offset b_ay, with a standard deviation",
-           "gyro r, steering delta, speed v_x, lateral acceleration a_y if logged; yaw-drift "
-           "model without relaxation, Pacejka tyres; noise Q, R",
+           r"$v_y$, $r$, $a_y$ offset $b_{a_y}$, with a standard deviation",
+           r"gyro $r$, steering $\delta$, speed $v_x$, lateral acceleration $a_y$ if logged; "
+           "yaw-drift model without relaxation, Pacejka tyres",
            "none in general (optimal for a linear Gaussian model); the RTS smoother is offline",
-           "noise Q, R (maximum likelihood of the innovations), initial covariance P_0",
+           r"noise $Q$, $R$ (maximum likelihood of the innovations), initial covariance $P_0$",
            ("ekf", "ukf", "rts")),
     Family("open-loop bicycle (reference)", "07, 08",
-           "v_y, r from the steering alone",
-           "steering delta, speed v_x; linear bicycle of the vehicle file",
+           r"$v_y$, $r$ from the steering alone",
+           r"steering $\delta$, speed $v_x$; linear bicycle of the vehicle file",
            "none: no measurement feedback; the score an observer must beat",
            "-", ("open-loop-linear",)),
 )
@@ -330,7 +333,6 @@ def fig_rmse(res: dict):
     (:func:`vehicle_observers.results.plotting.color`; the references without feedback,
     :data:`REFERENCES`, hatched), the legend beside the panels."""
     import matplotlib.pyplot as plt
-    from vehicle_observers.results import plotting
 
     names = [n for n in ESTIMATORS if any(n in res["rmse"][d] for d in res["rmse"])]
     titles = {"swd": f"common manoeuvre: sine with dwell, 17 m/s\n(after {res['transient_s']:g} s, "
@@ -348,7 +350,7 @@ def fig_rmse(res: dict):
                         ha="center", va="bottom", fontsize=7, color="0.4", rotation=90,
                         transform=ax.get_xaxis_transform())
                 continue
-            handles[n] = ax.bar(j, sc[n], 0.7, color=plotting.color(n, j), label=n,
+            handles[n] = ax.bar(j, sc[n], 0.7, color=colour(n), label=n,
                                 hatch="//" if n in REFERENCES else None, edgecolor="0.3", lw=0.5)
             ax.text(j, sc[n], f"{sc[n]:.3g}", ha="center", va="bottom", fontsize=7)
         ax.set_xlim(-0.6, len(names) - 0.4)
@@ -363,3 +365,98 @@ def fig_rmse(res: dict):
                 for j, n in enumerate(names) if n in handles],
                loc="center left", frameon=False, title="estimator")
     return fig
+
+
+#: estimators left out of the time-series figure: on the common manoeuvre their curves lie on
+#: the EKF's (their RMSE is in the bar figure)
+HIDDEN = ("ukf", "rts")
+
+
+def colour(name: str) -> str:
+    """The estimator's colour (:func:`vehicle_observers.results.plotting.color`); a name without
+    an entry of its own gets the fallback of its place in :data:`ESTIMATORS`, the same in every
+    figure of this module."""
+    from vehicle_observers.results import plotting
+
+    return plotting.color(name, ESTIMATORS.index(name) if name in ESTIMATORS else 0)
+
+
+def _series(res: dict, names=None):
+    log = res["logs"]["swd"]
+    names = [n for n in res["estimates"]["swd"] if n not in HIDDEN] if names is None else names
+    ests = {n: res["estimates"]["swd"][n] for n in names if n in res["estimates"]["swd"]}
+    return log, log.t - log.t[0], ests
+
+
+def fig_vy_manoeuvre(res: dict):
+    """The common manoeuvre in time: the true ``v_y`` with the study's estimates but
+    :data:`HIDDEN` (the
+    interval observer's guaranteed band shaded) and, below, each estimate's error, with the start
+    transient (not scored) greyed."""
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results import plotting
+
+    log, t, ests = _series(res)
+    fig, (ax, axe) = plt.subplots(2, 1, sharex=True, figsize=(9.0, 5.6),
+                                  gridspec_kw={"height_ratios": (1.4, 1.0)})
+    band = ests.get("interval-ifqir2017")
+    if band is not None:
+        ax.fill_between(t, band.columns["vy_lo_mps"], band.columns["vy_hi_mps"], alpha=0.25,
+                        color=colour("interval-ifqir2017"), lw=0,
+                        label="interval-ifqir2017: guaranteed band")
+    ax.plot(t, log.vy, color=plotting.TRUTH, lw=1.6, label=r"truth $v_y$")
+    for n, e in ests.items():
+        style = {"ls": "--"} if n in REFERENCES else {"ls": ":"} if n == "interval-ifqir2017" else {}
+        ax.plot(t, e.columns["vy_mps"], color=colour(n), **style,
+                label=n + (": middle of the band" if n == "interval-ifqir2017" else ""))
+        axe.plot(t, e.columns["vy_mps"] - log.vy, color=colour(n), **style)
+    for a in (ax, axe):
+        a.axvspan(0, res["transient_s"], color="0.9", zorder=0)
+    lo, hi = np.percentile(log.vy, [0.5, 99.5])
+    ax.set_ylim(lo - 0.5 * (hi - lo), hi + 0.5 * (hi - lo))     # the band starts at +-2 m/s
+    ax.set_ylabel(r"$v_y$ [m/s]")
+    ax.set_title("common manoeuvre: sine with dwell at 17 m/s (grey: start transient, not scored)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    axe.set_ylabel(r"$\hat v_y - v_y$ [m/s]")
+    axe.set_xlabel("t [s]")
+    keep = t >= res["transient_s"]
+    err = max(np.max(np.abs(e.columns["vy_mps"][keep] - log.vy[keep])) for e in ests.values())
+    axe.set_ylim(-1.1 * err, 1.1 * err)               # scaled after the start transient
+    return fig
+
+
+def animate_manoeuvre(res: dict, frames: int = 24):
+    """An HTML player (:func:`vehicle_observers.results.teaching.animation`) revealing the
+    manoeuvre over time: the truth, the EKF and the interval observer's band closing in."""
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results import plotting
+    from vehicle_observers.results.teaching import animation, frame_indices
+
+    log, t, ests = _series(res, ("ekf", "interval-ifqir2017"))
+    fig, ax = plt.subplots(figsize=(5.5, 2.6))
+    ax.set_xlim(t[0], t[-1])
+    lo, hi = np.percentile(log.vy, [0.5, 99.5])
+    ax.set_ylim(lo - 0.5 * (hi - lo), hi + 0.5 * (hi - lo))
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(r"$v_y$ [m/s]")
+    (truth,) = ax.plot([], [], color=plotting.TRUTH, lw=1.5, label="truth")
+    (ekf,) = ax.plot([], [], color=colour("ekf"), label="ekf")
+    band = ests["interval-ifqir2017"].columns
+    holder = [ax.fill_between([], [], [], lw=0, alpha=0.3, color=colour("interval-ifqir2017"),
+                              label="interval band")]
+    ax.legend(loc="lower left", fontsize=7)
+    fig.tight_layout()
+    idx = frame_indices(len(t), frames)
+
+    def update(i):
+        k = idx[i]
+        truth.set_data(t[:k], log.vy[:k])
+        ekf.set_data(t[:k], ests["ekf"].columns["vy_mps"][:k])
+        holder[0].remove()
+        holder[0] = ax.fill_between(t[:k], band["vy_lo_mps"][:k], band["vy_hi_mps"][:k], lw=0,
+                                    alpha=0.3, color=colour("interval-ifqir2017"))
+        ax.set_title(f"t = {t[k - 1]:.1f} s: the interval band (shaded) and the EKF on the truth",
+                     fontsize=8)
+        return truth, ekf
+
+    return animation(fig, update, len(idx))
