@@ -18,6 +18,8 @@ name says otherwise; arrays are (N, ...) over samples.
 
 from __future__ import annotations
 
+import dataclasses
+
 import matplotlib.pyplot as plt
 import matplotlib.ticker as mticker
 import numpy as np
@@ -743,3 +745,69 @@ def fig_feasibility_map(fm: dict, phi_bound: float | None = None,
     ax[1].grid(False)
     fig.colorbar(im, ax=ax[1], label=r"$\gamma_b/\gamma_a$ [-] (grey: none feasible)")
     return fig
+
+
+# ------------------------------------------------------------------ teaching figures -----
+def fig_fault_live(model: ul.UncertainLateralTS, gains: uio.UIOGains, offset: float,
+                   noise: float, t_end: float = 11.0, seed: int = 0):
+    """Live figure of the notebook: the fault estimate [rad] of design ``gains`` on a fresh
+    run with a fault of size ``offset`` [rad] (plus the 0.005 rad sine) from ``P.t_fault`` and
+    sensor noise ``noise`` x the nominal standard deviations, beside the raw residual
+    ``y_gyro - y_wheel`` (= f + noise: the measurement the fault estimate filters). The gains
+    stay those designed for the nominal noise. ``t_end`` [s]: a short run (one redraw < 1 s)."""
+    m = dataclasses.replace(model, D_w=model.D_w * noise)
+    sc = sn.make_scenario(m, t_end, P.dt, P.t_fault, P.x0_true, seed=seed,
+                          fault_kw={"offset": offset, "amp": P.fault_amp})
+    ev = sn.evaluate(gains, sc, m)
+    t, res = sc["t"], sc["y"][:, 0] - sc["y"][:, 1]
+    fig, ax = plt.subplots(figsize=(8.5, 3.4))
+    ax.plot(t, res, color="0.75", lw=0.5, label=r"residual $y_{gyro} - y_{wheel}$")
+    ax.plot(t, sc["f"], color=TRUTH, label="true fault $f$")
+    ax.plot(t, ev["Xhat"][:, 2], color=color("elyoussfi2020/theorem2"), lw=1.4,
+            label=r"UIO (b) estimate $\hat f$")
+    lim = max(0.01, 1.5 * abs(offset) + 2 * P.fault_amp)
+    ax.set(xlabel="t [s]", ylabel="fault [rad]", xlim=(P.t_fault - 2, t_end), ylim=(-lim, lim),
+           title=f"fault {offset:+.3f} rad, noise x {noise:g}: fault RMSE after the onset "
+                 f"{ev['rmse_f']:.2g} rad")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def animate_convergence(sim: dict, model: ul.UncertainLateralTS, t_show: float = 3.0,
+                        frames: int = 25):
+    """Animation (:func:`teaching.animation`) of the v_y estimate of (b) converging in the
+    noise-free run over the first ``t_show`` s: top, the true v_y, the estimate and the
+    open-loop model; bottom, ``|e_vy|`` [m/s] on a log axis between the two open-loop decay
+    envelopes ``|e_vy(0)| exp([A_i]_11 t)`` (no gain moves them: v_y is unobservable)."""
+    from vehicle_observers.results import teaching
+
+    sc0, ev0 = sim["sc0"], sim["ev0"]["b"]
+    m = np.flatnonzero(sc0["t"] <= t_show)[::10]          # every 10th sample: small frames
+    t, vy, vh = sc0["t"][m], sc0["X"][m, 0], ev0["Xhat"][m, 0]
+    e = np.abs(ev0["err"][m, 0])
+    fig, ax = plt.subplots(2, 1, figsize=(5.5, 3.8), sharex=True)
+    ax[0].plot(t, vy, color=TRUTH, label="true $v_y$")
+    ax[0].plot(t, sim["X_openloop"][m, 0], color="0.6", ls=":", label="open-loop model")
+    (l_est,) = ax[0].plot([], [], color=color("elyoussfi2020/theorem2"), lw=1.6,
+                          label=r"UIO (b) $\hat v_y$")
+    ax[0].set(ylabel="$v_y$ [m/s]", title="UIO (b): the unmeasured $v_y$ converging")
+    ax[0].legend(loc="lower right", fontsize=7)
+    for A, ls in zip(model.A, ("--", "-.")):
+        ax[1].plot(t, e[0] * np.exp(A[0, 0] * t), color="0.5", ls=ls, lw=0.8,
+                   label=rf"$|e(0)|\,e^{{{A[0, 0]:.2f}t}}$")
+    (l_err,) = ax[1].plot([], [], color=color("elyoussfi2020/theorem2"), lw=1.6,
+                          label=r"$|v_y - \hat v_y|$")
+    ax[1].set(yscale="log", ylim=(1e-5, 1.0), xlabel="t [s]", ylabel="|error| [m/s]")
+    ax[1].legend(loc="lower left", fontsize=7)
+    fig.tight_layout()
+    idx = teaching.frame_indices(len(t), frames)
+
+    def update(i):
+        k = idx[i]
+        l_est.set_data(t[:k], vh[:k])
+        l_err.set_data(t[:k], np.maximum(e[:k], 1e-12))
+        return l_est, l_err
+
+    with plt.rc_context({"savefig.dpi": 60}):   # the frames' resolution (to_jshtml saves them)
+        return teaching.animation(fig, update, len(idx))
