@@ -136,7 +136,7 @@ def check_4(fault_from_residual, model, offsets=(0.012, -0.02)):
     after the onset, ``4 sqrt(s_gyro^2 + s_wheel^2 / n)``."""
     scs = residual_scenarios(model, offsets)
     n = int(round((scs[0]["t"][-1] - P.t_fault - 0.5) / P.dt))
-    atol = 4 * float(np.sqrt(np.sum(np.diag(model.D_w) ** 2) / n))
+    atol = max(4 * float(np.sqrt(np.sum(np.diag(model.D_w) ** 2) / n)), 1e-9)
     return check("06.4", lambda: _collect(fault_from_residual, [(sc,) for sc in scs]),
                  np.array(offsets, float), rtol=0.0, atol=atol,
                  hint="y = C x + F_s f with both rows of C reading r and F_s = [1, 0]: "
