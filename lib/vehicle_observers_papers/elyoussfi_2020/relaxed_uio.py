@@ -468,7 +468,7 @@ def claims(g: dict) -> list[dict]:
                  "fault estimate of Theorem 2 converges faster than [22]", "fault delay",
                  None if abs(g["gamma_ratio_b_over_a"] - 1) > GAMMA_SAME else
                  (f"in this reconstruction Theorem 2 reaches the same certified optimum as [22] "
-                  f"(gamma_b / gamma_a = {fmt(g['gamma_ratio_b_over_a'], 4)}) at a decay rate "
+                  f"(gamma_b / gamma_a = {g['gamma_ratio_b_over_a']:.4f}) at a decay rate "
                   "capped by the unobservable v_y mode for both, so the relaxation gains "
                   "nothing to be faster with; which of the equally good gains the solver "
                   "returns decides the delay, not Theorem 2")),
@@ -567,9 +567,11 @@ def fig_steering(sc: dict):
     return fig
 
 
-#: end [s] of the start transient left out of the error axes' scaling (ln(100) / 0.99 1/s:
-#: the slowest v_y mode has decayed to 1 % of the initial error by then)
+#: end [s] of the start transient left out of the error axes' scaling: v_y (ln(100) / 0.99 1/s:
+#: the slowest v_y mode has decayed to 1 % of the initial error by then), and r, f (ln(100) /
+#: 22 1/s, their slowest poles)
 T_TRANSIENT = 5.0
+T_TRANSIENT_FAST = 0.2
 #: width [s] of the moving mean of the noisy fault errors in :func:`fig_fault_vs_ekf`
 T_SMOOTH = 0.2
 
@@ -580,10 +582,13 @@ def _legend_right(ax):
 
 def _error_limits(ax, t, errs, t_from: float, pad: float = 1.3):
     """y-limits of an error panel: ``pad`` x the largest |error| of ``errs`` (list of (N,))
-    from ``t_from`` on (after the start transient), marked on the axes."""
+    from ``t_from`` on (after the start transient); the transient is marked when it goes off
+    scale."""
     m = t >= t_from
     top = pad * max(float(np.abs(e[m]).max()) for e in errs)
     ax.set_ylim(-top, top)
+    if max(float(np.abs(e[~m]).max(initial=0.0)) for e in errs) <= top:
+        return                                    # nothing off scale: no mark
     ax.axvspan(t[0], t_from, color="0.92", zorder=0)
     ax.text(0.5 * t_from, 0.82 * top, "start transient\n(off scale)", ha="center", va="top",
             fontsize=7, color="0.35")
@@ -595,9 +600,10 @@ def _moving_mean(x, n: int):
 
 def _estimate_panels(sim: dict, k: int, ylabel: str, title: str):
     """Four panels for state ``k`` of ``[v_y, r, f]``: truth and estimates of (a), (b) (noisy
-    run; for v_y also the open-loop model), their errors (axis scaled on ``t >=``
-    :data:`T_TRANSIENT`), the difference of the two designs' estimates (noisy and noise-free),
-    and the noise-free errors zoomed on the fault onset."""
+    run; for v_y also the open-loop model), their errors (axis scaled after the start
+    transient, :data:`T_TRANSIENT` for v_y, :data:`T_TRANSIENT_FAST` for r and f), the
+    difference of the two designs' estimates (noisy and noise-free), and the noise-free errors
+    zoomed on the fault onset."""
     sc, ev, ev0 = sim["sc"], sim["ev"], sim["ev0"]
     t = sc["t"]
     ref = sc["X"][:, k] if k < 2 else sc["f"]
@@ -617,7 +623,8 @@ def _estimate_panels(sim: dict, k: int, ylabel: str, title: str):
     time_series(ax[1], t, errs, ylabel=f"error {unit}", styles=STYLES,
                 title=f"estimation error of {sym} (with noise; axis scaled after the start "
                       "transient)")
-    _error_limits(ax[1], t, list(errs.values()), T_TRANSIENT)
+    t_tr = T_TRANSIENT if k == 0 else T_TRANSIENT_FAST
+    _error_limits(ax[1], t, list(errs.values()), t_tr)
     _legend_right(ax[1])
     diff = {"with noise": ev["b"]["Xhat"][:, k] - ev["a"]["Xhat"][:, k],
             "noise-free": ev0["b"]["Xhat"][:, k] - ev0["a"]["Xhat"][:, k]}
@@ -626,7 +633,7 @@ def _estimate_panels(sim: dict, k: int, ylabel: str, title: str):
                         "noise-free": {"color": "k"}},
                 title="difference of the two designs' estimates (b) $-$ (a) "
                       "(axis scaled after the start transient)")
-    _error_limits(ax[2], t, list(diff.values()), T_TRANSIENT)
+    _error_limits(ax[2], t, list(diff.values()), t_tr)
     _legend_right(ax[2])
     time_series(ax[3], t[zoom], {n: e0["err"][zoom, k] for n, _, e0 in runs},
                 ylabel=f"error {unit}", styles=STYLES,
@@ -668,7 +675,7 @@ def fig_fault_vs_ekf(sim: dict, ekf: dict):
     time_series(ax[1], t, sm, ylabel="error [rad]", styles=STYLES,
                 title=f"fault error, {T_SMOOTH:g} s moving mean (the noise averaged out; axis "
                       "scaled after the start transient)")
-    _error_limits(ax[1], t, list(sm.values()), T_TRANSIENT)
+    _error_limits(ax[1], t, list(sm.values()), T_TRANSIENT_FAST + T_SMOOTH)
     _legend_right(ax[1])
     zoom = (t >= P.t_fault - 0.05) & (t <= P.t_fault + 0.4)
     time_series(ax[2], t[zoom], {nm: e0["err"][zoom, 2] for nm, _, e0 in runs},
