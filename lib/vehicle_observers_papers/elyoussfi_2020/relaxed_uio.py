@@ -88,9 +88,10 @@ def structure_metrics(model: ul.UncertainLateralTS, st: dict) -> dict:
     modes = unobservable_modes(st)
     return {"rank_M": (int(np.linalg.matrix_rank(Mb)), "", "rank Mbar"),
             "rank_CM": (int(np.linalg.matrix_rank(Cb @ Mb)), "", "rank Cbar Mbar"),
-            "vy_measured": (bool(np.any(np.abs(model.C[:, 0]) > 0)), "", "C[:, 0] != 0"),
-            "T_Mbar_residual": (float(np.abs(st["T"] @ Mb).max()), "", "(23a)"),
-            "unobservable_modes": (modes, "1/s", "of (T Abar_i, Cbar), per rule"),
+            "vy_measured": (bool(np.any(np.abs(model.C[:, 0]) > 0)), "",
+                            "v_y measured (a row of C reads it)"),
+            "T_Mbar_residual": (float(np.abs(st["T"] @ Mb).max()), "", "max |T Mbar| of (23a) (0 exactly)"),
+            "unobservable_modes": (modes, "1/s", "unobservable modes of (T Abar_i, Cbar), per rule"),
             "max_unobservable_mode": (max(modes) if modes else None, "1/s",
                                       "detectable if < 0 (None: observable)")}
 
@@ -137,7 +138,8 @@ def design_metrics(ga: uio.UIOGains, gb: uio.UIOGains) -> dict:
         out[f"margin_{k}"] = (g.min_margin, "", "min certified LMI margin (time-scaled units)")
         out[f"lmi_status_{k}"] = (g.solution.certificate.status, "",
                                   "LMI certificate: certified / inconclusive / violated")
-        out[f"slowest_pole_{k}"] = (float(-g.poles.real.max()), "1/s", "")
+        out[f"slowest_pole_{k}"] = (float(-g.poles.real.max()), "1/s",
+                                    f"slowest observer pole of ({k}), -max Re lambda(N_i)")
         out[f"gain_norm_{k}"] = (float(np.abs(g.L).max()), "", "max |L_i| entry (normalised)")
     return out
 
@@ -150,7 +152,8 @@ def remark1(st: dict, ga: uio.UIOGains, phi: float, mu: float = 1e-7):
     cert = uio.relaxed_certificate(st, vals, ga.alpha, phi, mu, P.radius)
     return cert, {"remark1_certified": (bool(cert.ok), "",
                                         "(a) solution certified as a (b) point"),
-                  "remark1_margin": (cert.min_margin, "", "")}
+                  "remark1_margin": (cert.min_margin, "",
+                                     "min margin of that certificate (time-scaled units)")}
 
 
 # ---------------------------------------------------------------------- simulation -------
@@ -202,7 +205,7 @@ def delay_metrics(name: str, ev0: dict, sc0: dict, who: str) -> dict:
     return {name: (d if settles else length, "s",
                    f"{who}, noise-free, 10 % band" + ("" if settles else
                                                       "; never settles: run length")),
-            f"{name}_settles": (settles, "", "")}
+            f"{name}_settles": (settles, "", f"{who}: the fault error settles in the band")}
 
 
 def fault_step_samples(sc: dict):
@@ -388,19 +391,22 @@ def feasibility_metrics(fm: dict, phi: float) -> dict:
     only_b = fm["feasible_b"] & ~fm["feasible_a"]
     adm = ratio[np.broadcast_to(ok, ratio.shape) & np.isfinite(ratio)]
     return {
-        "map_alpha": (fm["alpha"], "1/s", ""),
-        "map_phi": (fm["phi"], "1/s", ""),
-        "map_gamma_a": (fm["gamma_a"], "", ""),
+        "map_alpha": (fm["alpha"], "1/s", "decay rates of the map"),
+        "map_phi": (fm["phi"], "1/s", "bounds phi of the map"),
+        "map_gamma_a": (fm["gamma_a"], "", "best certified gamma of (a) per alpha"),
         "map_gamma_b": (fm["gamma_b"], "", "rows alpha, columns phi"),
         "map_containment": (bool(np.all(fm["feasible_b"] | ~fm["feasible_a"])), "",
                             "feasible(a) subset of feasible(b)"),
-        "map_n_feasible_a": (int(fm["feasible_a"].sum()), "", ""),
-        "map_n_feasible_b": (int(fm["feasible_b"].sum()), "", ""),
+        "map_n_feasible_a": (int(fm["feasible_a"].sum()), "", "cells where (a) is feasible"),
+        "map_n_feasible_b": (int(fm["feasible_b"].sum()), "", "cells where (b) is feasible"),
         "map_n_only_b": (int(only_b.sum()), "", "cells where only (b) is feasible"),
         "map_n_only_b_admissible": (int((only_b & ok).sum()), "",
-                                    "the same, on cells with phi >= the derived bound"),
-        "map_max_ratio_admissible": (float(adm.max()) if adm.size else float("nan"), "", ""),
-        "map_min_ratio_admissible": (float(adm.min()) if adm.size else float("nan"), "", ""),
+                                    "cells with phi >= the derived bound where only (b) is "
+                                    "feasible"),
+        "map_max_ratio_admissible": (float(adm.max()) if adm.size else float("nan"), "",
+                                     "largest gamma_b / gamma_a with phi >= the derived bound"),
+        "map_min_ratio_admissible": (float(adm.min()) if adm.size else float("nan"), "",
+                                     "smallest gamma_b / gamma_a with phi >= the derived bound"),
     }
 
 
