@@ -172,6 +172,8 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
                 for i, j, c in np.argwhere(~same)]
     lr = log_ratio(L, Lp)
     ratio = np.abs(L) / np.abs(Lp)
+    act = active_constraints(des)
+    free = ~np.stack([act["at_metzler"], act["at_cap"]], axis=-1)     # (K, 4, 2) per entry
     text = "\n".join([
         f"designed L_i^j (rows: mode; [L1, L2] per vertex):\n{L}",
         f"printed  L_i^j:\n{Lp}", f"designed diag P_i^j:\n{des.P}", f"printed  diag P_i^j:\n{Pp}",
@@ -185,12 +187,38 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
                "L1_shift_printed": (shift_pr, "m/s", ""),
                "L_sign_agreement": (float(same.mean()), "", "share of the 24 printed signs"),
                "L_log_ratio_mean": (float(lr.mean()), "", "mean |log10(L/L_printed)|, 3 modes"),
-               "L_log_ratio_mean_modes23": (float(lr[1:].mean()), "", "modes 2-3")}
+               "L_log_ratio_mean_modes23": (float(lr[1:].mean()), "", "modes 2-3"),
+               "L2_at_epsilon_cap_share": (float(act["at_cap"].mean()), "",
+                                           "share of the 12 designed L2 on the (20) diagonal "
+                                           "bound -(A^- - LC)_22 = epsilon"),
+               "L1_at_metzler_limit_share": (float(act["at_metzler"].mean()), "",
+                                             "share of the 12 designed L1 on the Metzler bound "
+                                             "(A^- - LC)_12 = 0"),
+               "L_log_ratio_free": (float(lr[free].mean()), "",
+                                    f"mean |log10(L/L_printed)| over the {int(free.sum())} "
+                                    "entries on no active (20) bound")}
+    text += (f"\nL2 on the epsilon bound (mode, vertex): "
+             f"{[(int(i) + 1, int(j) + 1) for i, j in np.argwhere(act['at_cap'])]}; "
+             f"L1 on the Metzler bound: "
+             f"{[(int(i) + 1, int(j) + 1) for i, j in np.argwhere(act['at_metzler'])]}")
     return {"des": des, "L_printed": Lp, "P_printed": Pp, "shift_designed": shift_des,
             "shift_printed": shift_pr, "sign_agreement": float(same.mean()),
             "sign_mismatch": mismatch, "log_ratio": lr,
             "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text,
             "metrics": metrics}
+
+
+def active_constraints(des: iv.IntervalDesign, cap_rtol: float = 1e-3,
+                       metzler_tol: float = 1e-2) -> dict:
+    """Which entries of the designed gains sit on a bound of (20) rather than where the
+    objective (min sum gamma_i) puts them: ``at_cap`` (K, 4) bool, ``L2`` on the diagonal bound
+    ``-(A^- - L C)_22 >= (1 - cap_rtol) epsilon`` (the ``epsilon`` of the design, [1/s]);
+    ``at_metzler`` (K, 4) bool, ``L1`` on the Metzler bound ``(A^- - L C)_12 <= metzler_tol``
+    [1/s]. ``M`` (K, 4, 2, 2): ``A^- - L C``."""
+    M = des.model.A_lo - des.L @ des.model.C
+    eps = np.inf if des.epsilon_shift is None else des.epsilon_shift
+    return {"at_cap": -M[..., 1, 1] >= (1 - cap_rtol) * eps,
+            "at_metzler": M[..., 0, 1] <= metzler_tol, "M": M}
 
 
 def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> dict:
@@ -209,6 +237,8 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
         metrics.update({
             f"printed_gamma_per_mode{sfx}": (c.gammas, "", "(19) with printed P, W = P L"),
             f"printed_lmi_margin{sfx}": (c.lmi_margin, "", "min eigenvalue margin (17)-(19)"),
+            f"printed_lmi_relative_margin{sfx}": (c.solution.certificate.min_relative_margin, "",
+                                                  "min relative eigenvalue margin (17)-(19)"),
             f"printed_lmi_status{sfx}": (c.solution.certificate.status, "",
                                          "LMI certificate: certified / inconclusive / violated"),
             f"printed_metzler_margin_min{sfx}": (c.metzler_margins.min(), "1/s", ""),
@@ -343,18 +373,42 @@ def convergence_study(lpv: dict, des: iv.IntervalDesign, des1: iv.IntervalDesign
         out = [_settle(de, t, vx, d, X, dt, k, n_h, box0, frac) for k in starts]
         times[lab] = np.array([o[0] for o in out])
         curves[lab] = [o[1] for o in out]
-    ts, t1 = times["switched"], times["single mode"]
+    out = [_settle_open_loop(des.model.veh, lpv["xi"], t, vx, d, X, dt, k, n_h, box0, frac)
+           for k in starts]
+    times["open loop"] = np.array([o[0] for o in out])
+    curves["open loop"] = [o[1] for o in out]
+    ts, t1, t0 = times["switched"], times["single mode"], times["open loop"]
     metrics = {"conv_time": (ts, "s", f"per mode [v_y, r]; {100 * frac:g} % of the initial-"
                                       "box effect"),
                "conv_time_max": (float(np.nanmax(ts)), "s", "switched, over modes and states"),
                "conv_time_single": (t1, "s", "same starts"),
                "conv_time_single_max": (float(np.nanmax(t1)), "s", ""),
+               "conv_time_open_loop": (t0, "s", "open-loop model (L = 0) from the box corner, "
+                                                "per mode [v_y, r]"),
+               "conv_time_open_loop_max": (float(np.nanmax(t0)), "s",
+                                           "open-loop model (L = 0), over modes and states"),
                "conv_start_speed": ([float(vx[k]) if k >= 0 else float("nan") for k in starts],
                                     "m/s", "")}
     text = "\n".join(f"{lab:12s}: width settling times [s] per mode (rows) for [v_y, r]:\n"
                      f"{np.round(tt, 4)}" for lab, tt in times.items())
     return {"starts": starts, "times": times, "curves": curves, "frac": frac,
             "speeds": metrics["conv_start_speed"][0], "text": text, "metrics": metrics}
+
+
+def _settle_open_loop(veh, xi, t, vx, d, X, dt, k, n_h, box0, frac):
+    """Open-loop baseline of :func:`convergence_study` (no output injection, ``L = 0``): the
+    LPV model (3)-(4) with the truth's stiffness ``xi`` simulated from the box corner
+    ``x(t0) + box0[1]`` and from ``x(t0)``; settling times [v_y, r] of their difference
+    (:func:`evaluation.settling_time`, ``frac`` of its initial value) and the curves ``(t - t0,
+    relative difference (n, 2))``; ``None`` curves if the mode is not reached."""
+    if k < 0:
+        return [float("nan"), float("nan")], None
+    sl = slice(k, k + n_h)
+    run = lambda x0: ub.simulate_lpv(veh, x0, d[sl], vx[sl], xi[sl], dt)
+    xa, xb = run(X[k] + box0[1]), run(X[k])
+    dev = np.abs(xa - xb)
+    return ([ev.settling_time(t[sl], xa[:, c], xb[:, c], frac) for c in range(2)],
+            (t[sl] - t[k], dev / dev[0]))
 
 
 def _settle(de, t, vx, d, X, dt, k, n_h, box0, frac):
@@ -532,11 +586,11 @@ def fig_inputs_emulated(lpv: dict):
 
 
 def fig_intervals_lpv(lpv: dict):
-    """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation);
-    2 axes."""
-    return ev.plot_intervals(lpv["t"], {"switched": lpv["res"]}, lpv["X"][:, 0], lpv["X"][:, 1],
-                             "Interval observer on the LPV truth (stiffness varying inside the "
-                             "+-10 % box)", truth_label="LPV truth")
+    """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation),
+    each with its margins ``x^+ - x``, ``x - x^-`` on a log axis below it; 4 axes."""
+    return ev.plot_margins(lpv["t"], lpv["res"], lpv["X"],
+                           "Interval observer on the LPV truth (stiffness varying inside the "
+                           r"$\pm$10 % box)", truth_label="LPV truth")
 
 
 def fig_intervals_nonlinear(nl: dict):
