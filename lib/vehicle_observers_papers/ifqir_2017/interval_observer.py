@@ -553,28 +553,31 @@ def fig_gains(gc: dict, po: dict | None = None):
 
 
 def fig_convergence(cv: dict):
-    """Effect of the initial box on the widths after a restart in each mode, relative to its
-    initial value (log scale), switched vs single mode, with the settling level
-    (:func:`convergence_study` output); 2 axes (v_y, r)."""
+    """Effect of the initial box after a restart in each mode, relative to its initial value
+    (log scale): on the widths of the switched and single-mode observers, and on the state of
+    the open-loop model (``L = 0``), with the settling level (:func:`convergence_study`
+    output); 2 axes (v_y, r)."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(10.0, 3.8), sharey=True)
-    styles = {"switched": "-", "single mode": "--"}
+    fig, ax = plt.subplots(1, 2, figsize=(11.0, 3.8), sharey=True)
+    styles = {"switched": ("-", 1.3), "single mode": ("--", 1.0), "open loop": (":", 1.3)}
     for lab, curves in cv["curves"].items():
         for i, cur in enumerate(curves):
             if cur is None:
                 continue
+            ls, lw = styles[lab]
             for c in range(2):
-                ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), styles[lab],
+                ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), ls, lw=lw,
                                color=ev.PALETTE[i % len(ev.PALETTE)],
                                label=f"{lab}, mode {i + 1} ($v_x$ = {cv['speeds'][i]:.1f} m/s)")
     for c, nm in enumerate(("$v_y$", "$r$")):
-        ax[c].axhline(cv["frac"], color="k", lw=0.8, ls=":")
+        ax[c].axhline(cv["frac"], color="0.4", lw=0.8, ls="-.",
+                      label=f"settling level {100 * cv['frac']:g} %" if c == 1 else None)
         ax[c].set_ylim(1e-5, 2.0)
         ax[c].set_xlabel("$t - t_0$ [s]")
-        ax[c].set_title(f"width of {nm}: effect of the initial box")
-    ax[0].set_ylabel("$|w - w_{point}| / |w(t_0) - w_{point}(t_0)|$ [-]")
-    ax[1].legend(fontsize=7, loc="upper right")
+        ax[c].set_title(f"{nm}: effect of the initial box")
+    ax[0].set_ylabel("relative effect of the initial box [-]")
+    ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     return fig
 
 
@@ -631,35 +634,120 @@ def fig_intervals_revs(revs: dict, zoom: bool = False):
                              truth_label="measured")
 
 
-# ------------------------------------------------------------------ interactive ------------
-def box_explorer(log: DriveLog, bands: ub.SpeedBands, rel_unc0: float = 0.10, seed: int = 0,
-                 interactive: bool = False):
-    """Slider for the stiffness box half-width (Assumption 3): each move re-solves Theorem 2
-    (certified) for ``IF.vehicle`` with that box and reruns :func:`lpv_experiment` on ``log``
-    (truth inside the same box), then shows the enclosure and the mean widths of ``v_y`` and
-    ``r`` (switched observer). ``interactive=False`` (papermill, quick runs) returns ``None``
-    and shows nothing; else the ipywidgets container."""
-    if not interactive:
-        return None
+# ------------------------------------------------------------------ teaching ---------------
+#: time span [s] of the live box figure (short, so one redraw stays near one second)
+BOX_SPAN = (8.0, 24.0)
+
+
+def box_band_run(log: DriveLog, bands: ub.SpeedBands, rel_unc: float, seed: int = 0,
+                 span: tuple[float, float] = BOX_SPAN) -> dict:
+    """The switched observer for a stiffness box of half-width ``rel_unc`` (fraction of
+    ``c_0``, Assumption 3) on the LPV truth, over ``span`` [s] of the emulated ``log``: the
+    Theorem 2 design for that box (:func:`.constants.design`), a seeded stiffness trajectory
+    inside the same box and the observer from the point box at the truth. Returns ``t``,
+    ``X`` (N, 2) truth, ``res``, ``m`` (:func:`evaluation.interval_metrics`, widths after 1 s)
+    and ``a_max`` (the Metzler limit of the box); ``res`` is ``None`` and ``error`` the reason
+    when no certified design exists (e.g. ``rel_unc > a_max``: Theorem 1 has no gain)."""
     import dataclasses
 
-    import ipywidgets as w
-    from IPython.display import display
     from vehicle_observers.core.errors import InfeasibleDesign
-    from vehicle_observers.results.tables import show_table
 
-    def show(rel_unc):
-        veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
-        try:
-            des = IF.design(bands, veh)
-            des1 = IF.design(ub.SpeedBands((bands.edges[0], bands.edges[-1])), veh)
-        except InfeasibleDesign as exc:
-            print(f"+-{100 * rel_unc:.0f} %: no certified design ({str(exc).splitlines()[0]})")
-            return
-        m = lpv_experiment(log, des, des1, seed=seed)["m"]
-        display(show_table([{"box": f"+-{100 * rel_unc:.0f} %", "enclosure v_y": m["enclosure_vy"],
-                             "mean width v_y [m/s]": m["width_mean_vy"],
-                             "mean width r [rad/s]": m["width_mean_r"]}]))
+    veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
+    seg = log.segment(*span)
+    t, dt = seg.t, seg.dt
+    vx, d = seg.extra["vx_true_mps"], seg.extra["delta_true_rad"]
+    xi = ub.random_stiffness_trajectory(veh, len(t), dt, seed=seed, corr_time=CORR_TIME)
+    X = ub.simulate_lpv(veh, [0.0, 0.0], d, vx, xi, dt)
+    out = {"t": t, "X": X, "res": None, "m": None, "a_max": veh.max_metzler_uncertainty(),
+           "error": ""}
+    try:
+        des = IF.design(bands, veh)
+    except InfeasibleDesign as exc:
+        out["error"] = str(exc).splitlines()[0]
+        return out
+    out["res"] = iv.run_interval_observer(des, dt, vx, d, d, X[:, 1], X[0], X[0])
+    out["m"] = ev.interval_metrics(out["res"], X, t, width_t_skip=1.0)
+    return out
 
-    return w.interactive(show, rel_unc=w.FloatSlider(value=rel_unc0, min=0.02, max=0.3, step=0.02,
-                                                     description="box +-", continuous_update=False))
+
+def fig_box_band(log: DriveLog, bands: ub.SpeedBands, rel_unc: float, seed: int = 0,
+                 span: tuple[float, float] = BOX_SPAN):
+    """Live figure of the stiffness box (:func:`box_band_run`): the ``v_y`` interval against
+    the LPV truth and, below, the yaw-rate margins ``r^+ - r``, ``r - r^-`` on a log axis,
+    with the enclosure and mean widths in the title; fixed axes so a move of the slider
+    shows the change. 2 axes."""
+    import matplotlib.pyplot as plt
+
+    b = box_band_run(log, bands, rel_unc, seed, span)
+    t, X = b["t"], b["X"]
+    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(8.0, 4.6),
+                           gridspec_kw={"height_ratios": [1.4, 1.0]})
+    ax[0].plot(t, X[:, 0], color="k", lw=0.9, label="LPV truth $v_y$", zorder=4)
+    ax[0].set_ylim(X[:, 0].min() - 0.6, X[:, 0].max() + 0.6)
+    ax[1].set_ylim(1e-7, 1e-1)
+    ax[1].set_yscale("log")
+    if b["res"] is None:
+        ax[0].text(0.5, 0.5, f"box $\\pm${100 * rel_unc:.0f} %: no certified Theorem 2 design\n"
+                   f"(Metzler limit $a_{{max}}$ = {b['a_max']:.3f}, Exercise 1)",
+                   transform=ax[0].transAxes, ha="center", va="center", color=ev.PALETTE[4])
+        ax[0].set_title(f"stiffness box $\\pm${100 * rel_unc:.0f} % of $c_0$")
+    else:
+        res, m = b["res"], b["m"]
+        ev._band(ax[0], t, res.x_lo[:, 0], res.x_hi[:, 0], 0, "$[v_y^-, v_y^+]$")
+        ax[1].plot(t, np.maximum(res.x_hi[:, 1] - X[:, 1], 1e-9), color=ev.PALETTE[0], lw=0.8,
+                   label="$r^+ - r$")
+        ax[1].plot(t, np.maximum(X[:, 1] - res.x_lo[:, 1], 1e-9), color=ev.PALETTE[1], lw=0.8,
+                   ls="--", label="$r - r^-$")
+        ax[0].set_title(f"stiffness box $\\pm${100 * rel_unc:.0f} % of $c_0$: enclosure "
+                        f"{min(m['enclosure_vy'], m['enclosure_r']):.3f}, mean width $v_y$ "
+                        f"{m['width_mean_vy']:.3f} m/s, $r$ {m['width_mean_r']:.1e} rad/s",
+                        fontsize=9)
+    ax[0].set_ylabel("$v_y$ [m/s]")
+    ax[1].set_ylabel("margin of $r$ [rad/s]")
+    ax[1].set_xlabel("$t$ [s]")
+    for a in ax:
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def animate_convergence(lpv: dict, des: iv.IntervalDesign, start: int, horizon: float = 2.5,
+                        frames: int = 30, box0=BOX0):
+    """Animation (:func:`vehicle_observers.results.teaching.animation`) of the switched
+    observer restarted at sample ``start`` of the LPV run (``lpv``) from the box
+    ``x(t0) + box0``: the ``v_y`` and ``r`` intervals revealed over ``horizon`` s, shrinking
+    onto the truth. Returns the HTML player."""
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results import teaching
+
+    n = int(round(horizon / lpv["dt"]))
+    sl = slice(start, start + n)
+    t, X = lpv["t"][sl] - lpv["t"][start], lpv["X"][sl]
+    res = iv.run_interval_observer(des, lpv["dt"], lpv["vx"][sl], lpv["delta"][sl],
+                                   lpv["delta"][sl], X[:, 1], X[0] + box0[0], X[0] + box0[1])
+    fig, ax = plt.subplots(1, 2, figsize=(7.5, 2.8))
+    idx = teaching.frame_indices(len(t), frames)
+    polys = [None, None]
+    for c, (nm, unit) in enumerate((("v_y", "m/s"), ("r", "rad/s"))):
+        ax[c].plot(t, X[:, c], color="k", lw=1.0, label="truth")
+        ax[c].set_xlim(0, t[-1])
+        ax[c].set_ylim(X[0, c] + 1.2 * box0[0][c], X[0, c] + 1.2 * box0[1][c])
+        ax[c].set_xlabel("$t - t_0$ [s]")
+        ax[c].set_ylabel(f"${nm}$ [{unit}]")
+    ax[0].legend(loc="upper right", fontsize=7)
+    title = fig.suptitle("")
+
+    def update(i):
+        k = idx[i]
+        for c in range(2):
+            if polys[c] is not None:
+                polys[c].remove()
+            polys[c] = ax[c].fill_between(t[:k], res.x_lo[:k, c], res.x_hi[:k, c],
+                                          color=ev.PALETTE[0], alpha=0.4, lw=0)
+        title.set_text(f"$t - t_0$ = {t[k - 1]:.2f} s: width $v_y$ {res.width[k - 1, 0]:.3f} "
+                       f"m/s, $r$ {res.width[k - 1, 1]:.1e} rad/s")
+        return polys
+
+    fig.tight_layout()
+    return teaching.animation(fig, update, len(idx))
