@@ -47,6 +47,20 @@ SETTLE_FRAC = 0.02
 CONV_HORIZON = 5.0
 
 
+def metrics_line(label: str, m: dict) -> str:
+    """One readable line of :func:`evaluation.interval_metrics` output ``m``: enclosure,
+    mean / max width and largest excursion of ``v_y`` [m/s] and ``r`` [rad/s]."""
+    parts = [f"{label:9s}"]
+    if "enclosure_vy" in m:
+        parts.append(f"enclosure v_y {m['enclosure_vy']:.4f}, r {m['enclosure_r']:.4f};")
+    parts.append(f"mean width v_y {m['width_mean_vy']:.4f} m/s, r {m['width_mean_r']:.2e} rad/s; "
+                 f"max width v_y {m['width_max_vy']:.3f} m/s, r {m['width_max_r']:.2e} rad/s")
+    if "max_excursion_vy" in m:
+        parts.append(f"; largest excursion v_y {m['max_excursion_vy']:.2e} m/s, r "
+                     f"{m['max_excursion_r']:.2e} rad/s")
+    return " ".join(parts)
+
+
 def _ratio(a: dict, b: dict, key: str) -> float:
     """``a[key] / b[key]`` (switched / single-mode width)."""
     return a[key] / b[key]
@@ -174,11 +188,14 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
     ratio = np.abs(L) / np.abs(Lp)
     act = active_constraints(des)
     free = ~np.stack([act["at_metzler"], act["at_cap"]], axis=-1)     # (K, 4, 2) per entry
+    rows = [{"mode.vertex": f"{i + 1}.{j + 1}", "L1 designed [m/s]": L[i, j, 0],
+             "L1 printed [m/s]": Lp[i, j, 0], "L2 designed [1/s]": L[i, j, 1],
+             "L2 printed [1/s]": Lp[i, j, 1], "P22/P11 designed": des.P[i, j, 1] / des.P[i, j, 0],
+             "P22/P11 printed": Pp[i, j, 1] / Pp[i, j, 0]}
+            for i in range(L.shape[0]) for j in range(L.shape[1])]
     text = "\n".join([
-        f"designed L_i^j (rows: mode; [L1, L2] per vertex):\n{L}",
-        f"printed  L_i^j:\n{Lp}", f"designed diag P_i^j:\n{des.P}", f"printed  diag P_i^j:\n{Pp}",
-        f"L1 shift v_max -> v_min vertex, modes 2-3: designed {shift_des.ravel()}  printed "
-        f"{shift_pr.ravel()}",
+        f"L1 shift v_max -> v_min vertex, modes 2-3: designed {np.round(shift_des, 3).tolist()}  "
+        f"printed {np.round(shift_pr, 3).tolist()} m/s",
         f"signs equal to the printed ones: {same.sum()} of {same.size}; different at (mode, "
         f"vertex, row, value): {mismatch}"])
     metrics = {"L_designed": (L, "", "[L1 m/s, L2 1/s] per mode, vertex"),
@@ -204,7 +221,7 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
     return {"des": des, "L_printed": Lp, "P_printed": Pp, "shift_designed": shift_des,
             "shift_printed": shift_pr, "sign_agreement": float(same.mean()),
             "sign_mismatch": mismatch, "log_ratio": lr,
-            "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text,
+            "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text, "rows": rows,
             "metrics": metrics}
 
 
@@ -332,8 +349,8 @@ def lpv_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.IntervalDesig
         metrics[f"lpv_width_ratio_{c}"] = (_ratio(m, m1, f"width_mean_{c}"), "",
                                            "switched / single")
     metrics["euler_substeps"] = (res.substeps, "", "")
-    text = (f"max |dv_x/dt| of the run: {acc} m/s^2 (phi assumes {IF.accel_max})"
-            f"\nswitched: {m}\nsingle:   {m1}")
+    text = (f"max |dv_x/dt| of the run: {acc:.3f} m/s^2 (phi assumes {IF.accel_max:g})\n"
+            f"{metrics_line('switched', m)}\n{metrics_line('single', m1)}")
     return {"t": t, "dt": dt, "vx": vx, "delta": d, "xi": xi, "X": X, "res": res, "res1": res1,
             "m": m,
             "m1": m1, "enclosure": min(m["enclosure_vy"], m["enclosure_r"]), "max_accel": acc,
@@ -464,7 +481,8 @@ def nonlinear_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.Interva
                                             f"{MIN_SLIP_DEG} deg")
     metrics["nl_stiffness_in_box_rear"] = (st["rear"], "", "")
     metrics["nl_n_clipped"] = (res.n_clipped, "", "")
-    text = (f"switched: {m}\nsingle:   {m1}\nspeed samples clipped: {res.n_clipped}\n"
+    text = (f"{metrics_line('switched', m)}\n{metrics_line('single', m1)}\n"
+            f"speed samples clipped: {res.n_clipped}\n"
             f"samples with |alpha| > {MIN_SLIP_DEG} deg: {st['share_big_slip']:.3f}; effective "
             f"stiffness F/alpha inside the box: front {st['front']:.3f}, rear {st['rear']:.3f}")
     return {"t": log.t, "truth": truth, "res": res, "res1": res1, "m": m, "m1": m1,
@@ -517,7 +535,7 @@ def revs_experiment(quick: bool = False, span: float | None = None) -> dict:
                                             "switched / single")
     lines = [f"gamma_i {np.round(rdes.gammas, 4)} single {round(rdes1.gamma, 4)} LMI margin "
              f"{rdes.lmi_margin:.1e} Metzler margin {rdes.min_metzler_margin:.1e} substeps "
-             f"{res.substeps}", f"switched: {m}", f"single:   {m1}"]
+             f"{res.substeps}", metrics_line("switched", m), metrics_line("single", m1)]
     for r in by_ay:
         sfx = f"ay_{r['lo']}_{r['hi']}"
         metrics[f"revs_enclosure_vy_{sfx}"] = (r["enclosure_vy"], "", "")
