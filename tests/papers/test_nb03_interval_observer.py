@@ -400,3 +400,14 @@ def test_convergence_study_has_the_open_loop_rows(conv):
     assert t0.shape == ts.shape and np.isnan(t0[2]).all()        # mode 3 not reached in 10 s
     assert np.all(ts[:2, 1] < 0.1 * t0[:2, 1])                   # output injection on r
     assert v["conv_time_open_loop_max"] == np.nanmax(t0)
+
+
+def test_animate_convergence_player(lpv, ds):
+    """The animation is an offline HTML player with one frame per requested index (first and
+    last sample of the horizon included)."""
+    from IPython.display import HTML
+
+    h = ist.animate_convergence(lpv, ds["des"], start=100, horizon=0.5, frames=3)
+    assert isinstance(h, HTML)
+    assert h.data.count("data:image/png;base64") == 3
+    assert "font-awesome" not in h.data
