@@ -99,3 +99,20 @@ def test_check_4_fault_from_residual(case, monkeypatch):
 def _shown_off(check):
     """``check`` returning its Outcome instead of displaying it."""
     return lambda *a, **k: check(*a, **{**k, "show": False})
+
+
+def test_check_5_ramp_fault_error(case, monkeypatch):
+    monkeypatch.setattr(ex, "check", _shown_off(ex.check))
+    st = case["st"]
+
+    def good(g, h, c):
+        Nh = h[0] * g.N[0] + h[1] * g.N[1]
+        return float(-np.linalg.solve(Nh, st["TG"][:, 0])[2] * c / P.scale_fdot * g.S[2])
+
+    def rule_one(g, h, c):                 # N_1 only, memberships ignored
+        return float(-np.linalg.solve(g.N[0], st["TG"][:, 0])[2] * c / P.scale_fdot * g.S[2])
+
+    args = (case["model"], case["gains"])
+    assert ex.check_5(good, *args).status == CORRECT
+    assert ex.check_5(rule_one, *args).status == WRONG
+    assert ex.check_5(lambda g, h, c: ..., *args).status == EMPTY

@@ -13,6 +13,8 @@ than one input (so a hard-coded number fails) and shows one line through
 3. The slowest pole [1/s] of the error dynamics (24) of a design, against the closed form
    ``max_i [A_i]_11`` (the unobservable open-loop lateral mode).
 4. A constant fault [rad] from the residual ``y_gyro - y_wheel`` of two simulated runs.
+5. The steady fault error [rad] under a ramp fault, from the closed form of (24), against a
+   simulation.
 """
 
 from __future__ import annotations
@@ -141,3 +143,39 @@ def check_4(fault_from_residual, model, offsets=(0.012, -0.02)):
                  np.array(offsets, float), rtol=0.0, atol=atol,
                  hint="y = C x + F_s f with both rows of C reading r and F_s = [1, 0]: "
                       "y[:, 0] - y[:, 1] = f + noise; average it over t >= t_fault + 0.5 s")
+
+
+def ramp_runs(model, gains, rates=(0.002, -0.001), t_end: float = 20.0):
+    """Exercise 5's data: for each fault rate ``c`` [rad/s] of ``rates``, the truth with a
+    ramp fault ``f = c t``, no steering, no uncertainty signal and no noise, and every design
+    of ``gains`` run on it fed the true memberships. Returns rows ``(c, g, h_end, e_f)``: the
+    memberships (2,) and the fault error ``f - f_hat`` [rad] at ``t_end``."""
+    from vehicle_observers.models import uncertain_lateral as ul
+
+    n = int(round(t_end / P.dt)) + 1
+    t = np.arange(n) * P.dt
+    rows = []
+    for c in rates:
+        f, delta = c * t, np.zeros(n)
+        X = ul.simulate_truth(model, np.zeros(2), delta, f, 0.0, P.dt)
+        y = X @ model.C.T + f[:, None] * model.F_s[:, 0]
+        h = model.tyres.memberships(ul.slip_front(model, X, delta, f))
+        u = np.column_stack([delta, h])
+        rows += [(c, g, h[-1], f[-1] - uio.UIObserver(g, model, P.dt, premise="measured")
+                  .run(t, u, y).x[-1, 2]) for g in gains]
+    return rows
+
+
+def check_5(ramp_fault_error, model, gains):
+    """Exercise 06.5: ``ramp_fault_error(g, h, c) -> float`` [rad], the steady fault error
+    ``f - f_hat`` of design ``g`` under a ramp fault of rate ``c`` [rad/s] with memberships
+    ``h`` (2,) frozen, from the closed form of (24). Expected: the simulated error at 20 s
+    (:func:`ramp_runs`, both designs, two rates) minus the sampled observer's half-sample lag
+    ``c dt / 2``; relative tolerance 2e-3 (the memberships drift slowly along the ramp)."""
+    rows = ramp_runs(model, gains)
+    want = np.array([e - c * P.dt / 2 for c, _, _, e in rows])
+    return check("06.5", lambda: _collect(ramp_fault_error, [(g, h, c) for c, g, h, _ in rows]),
+                 want, rtol=2e-3,
+                 hint="(24) with f' = c: eps' = N_h eps + T Gam c / s_fd, N_h = h_1 N_1 + h_2 N_2 "
+                      "(normalised, T Gam = st['TG'], s_fd = P.scale_fdot); at steady state "
+                      "eps = -N_h^-1 T Gam c / s_fd; the fault error is g.S[2] * eps[2]")
