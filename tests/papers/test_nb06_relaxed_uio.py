@@ -1,6 +1,8 @@
 """Experiments and figures of notebook 06 (relaxed UIO) on short horizons: each experiment
-against a known answer or an independent computation, the claim rules against hand-made
-metrics, each figure's axes."""
+against a known answer or an independent computation (the UIO matrices of (23a) by hand, the
+poles of (24) by numpy, a ramp fault's steady error in closed form, the error dynamics and the
+open-loop model by scipy), the claim rules against hand-made metrics, and what the figures
+show (the designs' difference, error axes scaled after the start transient)."""
 
 from __future__ import annotations
 
