@@ -4,7 +4,8 @@ DMVT observer, LMI pole regions).
 Each ``check_N(answer, ...)`` calls the student's function on several inputs (so a hard-coded
 number fails), computes the expected answer **independently** of the notebook's solution (a
 transcription of the model (25) written here, finite differences, eigenvalues) and shows one
-line through :func:`vehicle_observers.results.teaching.check`.
+line through :func:`vehicle_observers.results.teaching.check` (``show=False``: no display,
+the :class:`~vehicle_observers.results.teaching.Outcome` is returned).
 
 1. ``check_1(observability_rank)``: rank of the observability matrix of the bicycle (25)
    linearised at ``(x, u)`` for a sensor matrix ``C`` (Jacobian (31)).
@@ -60,7 +61,7 @@ CASES_1 = (
 )
 
 
-def check_1(observability_rank):
+def check_1(observability_rank, show: bool = True):
     """Exercise 04.1: ``observability_rank(x, u, C)`` -> rank of ``[C; CA; CA^2; CA^3]`` with
     ``A = df/dx (x, u)`` of (25). Expected: finite-difference Jacobian of the model written here,
     rank by singular values relative to the largest (tolerance 1e-8)."""
@@ -76,14 +77,14 @@ def check_1(observability_rank):
 
     return check("04.1", answer, [expected_rank(*c) for c in CASES_1],
                  hint="A = bicycle.jacobian(x, u, params)[0] (shape (1, 4, 4) for one state); "
-                      "stack C, CA, CA^2, CA^3 and take numpy.linalg.matrix_rank", rtol=0, atol=0)
+                      "stack C, CA, CA^2, CA^3 and take numpy.linalg.matrix_rank", rtol=0, atol=0, show=show)
 
 
 #: boxes of exercise 2: ((x2 lo, x2 hi) [1/m], (x3 lo, x3 hi) [rad]); u = 0
 CASES_2 = (((-0.2, 0.2), (-1.0, 1.0)), ((0.0, 0.1), (0.2, 0.6)), ((-0.1, 0.05), (-0.3, 0.8)))
 
 
-def check_2(xi_bounds):
+def check_2(xi_bounds, show: bool = True):
     """Exercise 04.2: ``xi_bounds(x2_lim, x3_lim)`` -> ``[[xi1 lo, xi1 hi], [xi2 lo, xi2 hi]]``
     over the box (u = 0). Expected: finite-difference Jacobian of the model written here on a
     301 x 301 grid of the box (corners included); relative tolerance 2e-3 (grid resolution)."""
@@ -101,14 +102,14 @@ def check_2(xi_bounds):
     return check("04.2", answer, want, rtol=2e-3, atol=1e-3,
                  hint="evaluate bicycle.jacobian on a fine grid of the box (x1 = x4 = 0, u = 0: "
                       "they do not enter J[3, 1:3]) with the corners included, then min and max "
-                      "of J[:, 3, 1] and J[:, 3, 2]")
+                      "of J[:, 3, 1] and J[:, 3, 2]", show=show)
 
 
 #: (T_s [s], R [1/s]) cases of exercise 3
 CASES_3 = ((1.5, 10.0), (1.0, 12.0))
 
 
-def check_3(design_for_settling, vertices, C):
+def check_3(design_for_settling, vertices, C, show: bool = True):
     """Exercise 04.3: ``design_for_settling(T_s, R)`` -> ``(a, L)``: ``a`` [1/s] the half-plane
     shift of (35) that makes every mode decay to 2 % within ``T_s`` (``exp(-a T_s) = 0.02``),
     ``L`` (4, 2) or (r, 4, 2) a gain designed with (23)+(35)+(36). Expected: ``a = ln(50)/T_s``
@@ -135,4 +136,4 @@ def check_3(design_for_settling, vertices, C):
     return check("04.3", answer, want, rtol=1e-3,
                  hint="exp(-a T_s) = 0.02 gives a = ln(50) / T_s; then "
                       "dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(a, R)) and "
-                      "return (a, design.L)")
+                      "return (a, design.L)", show=show)
