@@ -181,6 +181,9 @@ def design_summary(designs: dict) -> str:
         lines.append(f"{d.solution.name} "
                      f"{ {k: round(v, 3) for k, v in d.poles.as_dict().items()} }")
         lines.append("L_1 = " + np.array2string(d.L[0], precision=2).replace("\n", ""))
+        if d.solution.solver_inaccurate:
+            lines.append(f"the solver flagged its solution as inaccurate; the independent "
+                         f"certificate says: {d.solution.certificate.status}")
     return "\n".join(lines)
 
 
@@ -829,13 +832,14 @@ def _labels(a: float, R: float) -> dict:
 def fig_poles(designs: dict, a: float, R: float):
     """Eigenvalues [1/s] of ``A_i - L_j C`` for all vertex pairs of both designs with the
     region (35)-(36) drawn (left, axes fitted to the eigenvalues) and a zoom on the region
-    (right); equal aspect on both, so the disk (36) is a circle; one legend below both."""
+    (right); equal aspect on both, so the disk (36) is a circle; the legend below the left
+    axes."""
     lab = _labels(a, R)
     reg = region(a, R)
     ev = np.concatenate([d.poles.eigs.ravel() for d in designs.values()])
     x0, y1 = min(ev.real.min(), -R) * 1.08, max(np.abs(ev.imag).max(), R) * 1.12
     x1 = 0.15 * abs(x0)
-    fig, axs = plt.subplots(1, 2, figsize=(8.5, 5.4),
+    fig, axs = plt.subplots(1, 2, figsize=(8.5, 6.0),
                             gridspec_kw={"width_ratios": [(x1 - x0) / (2 * y1), 0.5]})
     n = designs["noreg"].poles.eigs.shape[0] * designs["noreg"].poles.eigs.shape[1]
     pl.plot_poles(axs[0], {lab[k]: d for k, d in designs.items()}, reg,
@@ -849,11 +853,9 @@ def fig_poles(designs: dict, a: float, R: float):
     axs[1].set_aspect("equal", adjustable="box")
     axs[1].set_xlim(-1.1 * R, 0.1 * R)
     axs[1].set_ylim(-1.2 * R, 1.2 * R)
-    axs[1].set_title("zoom on the region: half-plane (35) and disk (36)")
-    handles, labels = axs[0].get_legend_handles_labels()
-    fig.subplots_adjust(left=0.09, right=0.98, top=0.93, bottom=0.2, wspace=0.3)
-    fig.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 0.0), ncol=2,
-               frameon=False)
+    axs[1].set_title("zoom: half-plane (35) and disk (36)")
+    # one legend under the left axes (an axes legend: Report.savefig's tight_layout keeps room)
+    axs[0].legend(loc="upper left", bbox_to_anchor=(-0.1, -0.11), ncol=1, frameon=False)
     return fig
 
 
