@@ -404,6 +404,7 @@ def test_figures_return_figures_with_expected_axes(setup):
     for fig, n in ((ds.fig_premises(mod), 4), (ds.fig_tracking(mod), 3),
                    (ds.fig_jacobian_bounds(jac), 2), (ds.fig_poles(designs, A_REG, R_REG), 2),
                    (ds.fig_observer_run(obs, "reg", "t"), 8), (ds.fig_errors(obs), 4),
+                   (ds.fig_premise_estimates(obs, mod["ts"], BP, t_max=0.5), 3),
                    (ds.fig_ekf_ukf_errors(base, A_REG, R_REG), 8),
                    (ds.fig_region_sweep(sws, 0.5, 3.0), 2)):
         assert isinstance(fig, Figure) and len(fig.axes) == n, fig._suptitle
@@ -568,3 +569,24 @@ def test_scored_run_on_a_constructed_error_signal():
     np.testing.assert_allclose(r.info["settling"], 0.9, rtol=1e-12)
     assert r.us_per_step == pytest.approx(200.0) and r.estimator == "est"
     np.testing.assert_array_equal(r.x, Xh)      # the recorded estimate is kept
+
+
+def test_premise_error_figure_against_direct_computation(setup):
+    """Each curve is 100 (z_k(x) - z_k(xhat)) / (zmax_k - zmin_k) of its run, recomputed here
+    from the premises (Sec. III-A); at t = 0 (x = 0, xhat = XHAT0) z1 = (g/p) sin(x3)/x3 gives
+    z1(0) - z1(xhat) = (g/p)(1 - sin(0.1)/0.1)."""
+    import matplotlib.pyplot as plt
+
+    mod, _, _, obs = setup
+    ts = mod["ts"]
+    fig = ds.fig_premise_estimates(obs, ts, BP, t_max=0.5)
+    keep = obs["t"] <= 0.5
+    for j, key in enumerate(("noreg", "reg")):
+        X, Xh, U = obs["runs"][key]
+        want = 100 * (b.ts_premises(X, U, BP) - b.ts_premises(Xh, U, BP))[keep] / (ts.zmax - ts.zmin)
+        for k, ax in enumerate(fig.axes):
+            np.testing.assert_allclose(ax.get_lines()[j].get_ydata(), want[:, k], rtol=1e-12)
+        z10 = BP.g / BP.p * (1 - np.sin(0.1) / 0.1)
+        assert fig.axes[0].get_lines()[j].get_ydata()[0] == pytest.approx(
+            100 * z10 / (ts.zmax[0] - ts.zmin[0]), rel=1e-9)
+    plt.close(fig)

@@ -802,6 +802,31 @@ def fig_premises(mod: dict):
     return fig
 
 
+def fig_premise_estimates(obs: dict, ts, bp, t_max: float = 1.5):
+    """The unmeasurable premises (Sec. IV): the premise error ``z(x) - z(xhat)`` (what the
+    observer (6) gets wrong in its weights ``mu_i(zhat)``) of both designs over the first
+    ``t_max`` s, as a share of the width of each sector (``zmax - zmin``); (1, 3) axes."""
+    t = obs["t"]
+    keep = t <= t_max
+    fig, axs = plt.subplots(1, 3, figsize=(12, 3.4), sharex=True, sharey=True)
+    for key in _KEYS:
+        Xs, Xh, Us = obs["runs"][key]
+        dz = (b.ts_premises(Xs[keep], Us[keep], bp) - b.ts_premises(Xh[keep], Us[keep], bp)) \
+            / (ts.zmax - ts.zmin)
+        for k, ax in enumerate(axs):
+            ax.plot(t[keep], 100 * dz[:, k], color=COLORS[key],
+                    label="no region" if key == "noreg" else "with region")
+    for k, ax in enumerate(axs):
+        ax.axhline(0, color="0.5", lw=0.6)
+        ax.set_title(PREMISE_LABELS[k].split(" [")[0])
+        ax.set_xlabel("t [s]")
+    axs[0].set_ylabel(r"$z_k(x) - z_k(\hat x)$ [% of the sector width]")
+    axs[-1].legend(loc="lower right", frameon=False)
+    fig.suptitle(r"Premise error of the observer: $z(x)$ (unmeasurable) minus $z(\hat x)$ "
+                 r"(used by (6))")
+    return fig
+
+
 def fig_tracking(mod: dict, k1: float = 10.0, k2: float = 10.0):
     """Fig. 3 analogue: x3 vs sin t, x4 vs cos t and the input u of (27), 3 axes."""
     fig, axs = plt.subplots(3, 1, figsize=(9, 6), sharex=True)
