@@ -132,6 +132,10 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     ``x0`` (a deliberately wrong estimate, to exercise the decay term). ``T`` = last exit of
     the premise error from ``band_vy`` (the differentiators' convergence time in (34)).
 
+    ``max_ratio_open_loop``: the same largest ratio for the open-loop model (all ``L_i = 0``,
+    the gyro unused) against the bound of ``design``: below 1 means the bound holds even without
+    the observer's correction on this run, i.e. it proves little about the gains.
+
     ``t_informative`` [s]: the time after which the bound (45) falls below ``||e(0)||``
     (before it, (34) says less than "the error does not grow"): ``(2/alpha) ln(B0/||e0||)``
     with ``B0 = sqrt(a2/a1 ||e0||^2 + c/(alpha a1) max_[0,T] ||delta||^2 e^(alpha T))``, the
@@ -151,12 +155,20 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     dn = np.linalg.norm(dl, axis=1)
     T = T1.convergence_time(log.t, pe.vy - log.vy, band=band_vy)
     b = T1.bound_34(log.t, en[0], dn, T, design)
+    # the same bound against the open-loop model (L_i = 0, the gyro unused): if this error also
+    # stays below the bound, the bound cannot tell a designed gain from none on this run
+    ol = to.run_observer(log, replace(design, L=np.zeros_like(design.L)), pe,
+                         x0=np.asarray(x0, dtype=float))
+    _, dl_ol = T1.premise_mismatch(ts, xt, log.delta, zt, ol.z)
+    en_ol = np.linalg.norm(xt - ol.x, axis=1)
+    b_ol = T1.bound_34(log.t, en_ol[0], np.linalg.norm(dl_ol, axis=1), T, design)
     a, a1, a2 = design.alpha, design.alpha1, design.alpha2
     B0 = np.sqrt(a2 / a1 * en[0] ** 2 + design.c / (a * a1) * b["delta_max_T"] ** 2 * np.exp(a * T))
     return {"alpha": a, "t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
             "bound_paper": b["paper"], "T": T, "truth_inside_sector": inside,
             "max_ratio": float(np.max(en / b["paper"])),
             "max_ratio_iss": float(np.max(en / b["iss"])),
+            "max_ratio_open_loop": float(np.max(en_ol / b_ol["paper"])),
             "min_margin": float(np.min(b["paper"] - en)),
             "min_margin_iss": float(np.min(b["iss"] - en)),
             "delta_max_T": b["delta_max_T"], "e0": float(en[0]),
@@ -221,6 +233,18 @@ def lmi_study(alphas=(1e-3, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0), configs=None, ts=Non
                      "max_pole_modulus": mg["max_pole_modulus"],
                      "pole_dt": mg["max_pole_modulus"] * yacine2015.Ts})
     return rows
+
+
+def certificate_counts(rows: list[dict], config: str = "(33) alone") -> dict:
+    """How many rows of :func:`lmi_study` for ``config`` are ``certified``, ``inconclusive``
+    (signs right but relative margin < 1e-9 or cond(P) > 1e8: never counted as feasible) and
+    ``infeasible`` (no solution, or a violated certificate), and the largest certified alpha."""
+    rs = [r for r in rows if r["config"] == config]
+    cert = [r["alpha"] for r in rs if r.get("status") == "certified"]
+    return {"n": len(rs), "certified": len(cert),
+            "inconclusive": sum(r.get("status") == "inconclusive" for r in rs),
+            "infeasible": sum(r.get("status") not in ("certified", "inconclusive") for r in rs),
+            "max_certified_alpha": max(cert) if cert else float("nan")}
 
 
 def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
@@ -288,13 +312,14 @@ def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False
                    noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None) -> list[dict]:
     """Matched model (truth = the observer's car) and mismatched truth
     (:func:`mismatched_params`) on the same emulated lap, same seed: estimation metrics
-    side by side (the observer and the premise chain keep the paper's car)."""
+    side by side (the observer and the premise chain keep the paper's car); each row also
+    carries its ``log`` and ``run`` (for :func:`fig_estimates`)."""
     rows = []
     for name, truth in (("matched", None), ("mismatched", mismatched_params(None, mismatch))):
         log = scenarios.emulated_satory(seed=seed, quick=quick, noise_scale=noise_scale,
                                         params=truth, v_max=v_max)
         run = to.run_observer(log, design)
-        rows.append({"truth": name, **estimation_metrics(log, run)})
+        rows.append({"truth": name, **estimation_metrics(log, run), "log": log, "run": run})
     return rows
 
 
@@ -340,31 +365,49 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
     return fig
 
 
-def fig_estimates(log: DriveLog, run: to.TSRun):
+def fig_estimates(log: DriveLog, run: to.TSRun, mismatched=None, t_settle: float = T_SETTLE):
     """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
-    with an error panel (truth and estimate overlap at this scale)."""
-    t = log.t
-    rows = [(r"$v_y$ [m/s]", log.vy, run.vy, run.premises.vy),
-            (r"$F_f$ [N]", log.Ff, run.Ff, None), (r"$F_r$ [N]", log.Fr, run.Fr, None)]
+    with an error panel (truth and estimate overlap at this scale; error axes scaled on
+    ``t > t_settle``, after the start transient). ``mismatched``: ``(log, run)`` of the same lap
+    driven by a car that is not the observer's model, drawn as a second column (same axes)."""
+    cols = [("truth = the observer's model", log, run)]
+    if mismatched is not None:
+        cols.append(("mismatched car (tyres, mass, inertia, relaxation)", *mismatched))
+    nc = len(cols)
     with plt.style.context(STYLE):
-        fig, axes = plt.subplots(6, 1, sharex=True, figsize=(10, 9.5),
-                                 gridspec_kw={"height_ratios": [2, 1] * 3})
-        for k, (lab, truth, est, prem) in enumerate(rows):
-            ax, ae = axes[2 * k], axes[2 * k + 1]
-            tt, yt, ye = decimate(t, truth, est)
-            ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
-            if prem is not None:
-                tp, yp, ep = decimate(t, prem, prem - truth)
-                ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
-                ae.plot(tp, ep, c="C1", lw=0.6, label="premise (26)")
-            ax.plot(tt, ye, c="k", ls="--", label="TS observer (31)" + ("+(46)" if k else ""))
-            ae.plot(tt, ye - yt, c="k", lw=0.7, label="observer")
-            ax.set_ylabel(lab)
-            ae.set_ylabel("error " + lab.split(" ")[1])
-            ax.legend(loc="upper right", fontsize=7)
-            ae.legend(loc="upper right", fontsize=7)
-        axes[-1].set_xlabel("$t$ [s]")
-        fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run)")
+        fig, axes = plt.subplots(6, nc, sharex=True, sharey="row", figsize=(6.2 * nc + 1, 9.5),
+                                 gridspec_kw={"height_ratios": [2, 1] * 3}, squeeze=False)
+        for j, (title, lg, rn) in enumerate(cols):
+            rows = [(r"$v_y$ [m/s]", lg.vy, rn.vy, rn.premises.vy),
+                    (r"$F_f$ [N]", lg.Ff, rn.Ff, None), (r"$F_r$ [N]", lg.Fr, rn.Fr, None)]
+            late = lg.t - lg.t[0] > t_settle
+            for k, (lab, truth, est, prem) in enumerate(rows):
+                ax, ae = axes[2 * k, j], axes[2 * k + 1, j]
+                tt, yt, ye = decimate(lg.t, truth, est)
+                ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
+                lim = np.abs(est - truth)[late].max()
+                if prem is not None:
+                    tp, yp, ep = decimate(lg.t, prem, prem - truth)
+                    ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
+                    ae.plot(tp, ep, c="C1", lw=0.6)
+                    lim = max(lim, np.abs(prem - truth)[late].max())
+                ax.plot(tt, ye, c="k", ls="--", lw=0.9, label="TS observer (31), forces (46)")
+                ae.plot(tt, ye - yt, c="k", lw=0.7)
+                ae.axhline(0, c="0.6", lw=0.5)
+                if j == 0:
+                    ax.set_ylabel(lab)
+                    ae.set_ylabel("error " + lab.split(" ")[1])
+                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
+                elif 1.1 * lim > ae.get_ylim()[1]:
+                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
+            axes[0, j].set_title(title, fontsize=10)
+            axes[-1, j].set_xlabel("$t$ [s]")
+        h, lab = axes[0, 0].get_legend_handles_labels()
+        fig.legend(h, lab, loc="upper center", ncol=3, bbox_to_anchor=(0.5, 0.955), fontsize=8,
+                   frameon=False)
+        fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run); "
+                     f"error axes scaled on $t > {t_settle:g}$ s")
+        fig.tight_layout(rect=(0, 0, 1, 0.93))
     return fig
 
 
