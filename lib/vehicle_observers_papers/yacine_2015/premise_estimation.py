@@ -308,18 +308,33 @@ def mismatched_params(p=None, mismatch=None):
                    name=f"{p.name}, mismatched")
 
 
+def scaled_mismatch(fraction: float, mismatch=None) -> dict:
+    """``fraction`` of :data:`MISMATCH` (0: the paper's car, 1: the full mismatch): the relative
+    changes multiplied by ``fraction``, the relaxation length moved from the paper's ``r`` by
+    ``fraction`` of the way to the mismatched one."""
+    mm = MISMATCH if mismatch is None else mismatch
+    out = {k: fraction * v for k, v in mm.items() if k != "r"}
+    out["r"] = yacine2015.r_relax + fraction * (mm["r"] - yacine2015.r_relax)
+    return out
+
+
 def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False,
-                   noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None) -> list[dict]:
-    """Matched model (truth = the observer's car) and mismatched truth
-    (:func:`mismatched_params`) on the same emulated lap, same seed: estimation metrics
-    side by side (the observer and the premise chain keep the paper's car); each row also
-    carries its ``log`` and ``run`` (for :func:`fig_estimates`)."""
+                   noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None,
+                   fractions=(0.0, 1.0)) -> list[dict]:
+    """The same emulated lap, same seed, driven by cars that are ``fraction`` of the way from
+    the observer's model (0, ``truth`` "matched") to the mismatched car (1, "mismatched";
+    :func:`mismatched_params`, :func:`scaled_mismatch`): estimation metrics side by side (the
+    observer and the premise chain keep the paper's car); each row also carries ``fraction``,
+    its ``log`` and ``run`` (for :func:`fig_estimates`)."""
     rows = []
-    for name, truth in (("matched", None), ("mismatched", mismatched_params(None, mismatch))):
+    for f in fractions:
+        name = {0.0: "matched", 1.0: "mismatched"}.get(float(f), f"{f:g} x mismatch")
+        truth = None if f == 0 else mismatched_params(None, scaled_mismatch(f, mismatch))
         log = scenarios.emulated_satory(seed=seed, quick=quick, noise_scale=noise_scale,
                                         params=truth, v_max=v_max)
         run = to.run_observer(log, design)
-        rows.append({"truth": name, **estimation_metrics(log, run), "log": log, "run": run})
+        rows.append({"truth": name, "fraction": float(f), **estimation_metrics(log, run),
+                     "log": log, "run": run})
     return rows
 
 
@@ -403,11 +418,10 @@ def fig_estimates(log: DriveLog, run: to.TSRun, mismatched=None, t_settle: float
             axes[0, j].set_title(title, fontsize=10)
             axes[-1, j].set_xlabel("$t$ [s]")
         h, lab = axes[0, 0].get_legend_handles_labels()
-        fig.legend(h, lab, loc="upper center", ncol=3, bbox_to_anchor=(0.5, 0.955), fontsize=8,
-                   frameon=False)
+        axes[-1, 0].legend(h, lab, loc="upper left", bbox_to_anchor=(0.0, -0.55), ncol=3,
+                           fontsize=8, frameon=False)
         fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run); "
                      f"error axes scaled on $t > {t_settle:g}$ s")
-        fig.tight_layout(rect=(0, 0, 1, 0.93))
     return fig
 
 
