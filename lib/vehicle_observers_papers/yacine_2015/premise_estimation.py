@@ -493,6 +493,59 @@ def fig_hosmd(sc: dict):
     return fig
 
 
+def fig_hosmd_live(log10_L: float = 0.0, log10_noise: float = -5.0, seed: int = 0,
+                   tau: float = 1e-3, horizon: float = 12.0):
+    """The live figure of notebook 02: Levant n = 3 with bound ``L = 10**log10_L`` on
+    ``f = sin t`` plus uniform noise of amplitude ``10**log10_noise``: ``z_1`` against
+    ``f' = cos t`` and ``|z_1 - cos t|`` (log scale)."""
+    t = np.arange(0.0, horizon, tau)
+    f = np.sin(t) + 10**log10_noise * np.random.default_rng(seed).uniform(-1, 1, len(t))
+    Z = levant_differentiator(f, tau, 3, 10**log10_L)
+    with plt.style.context(STYLE):
+        fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 4.2))
+        a.plot(t, np.cos(t), c="0.6", lw=2.2, label=r"$f'(t) = \cos t$")
+        a.plot(t, Z[:, 1], "k--", lw=0.9, label="HOSMD $z_1$")
+        a.set_ylim(-2, 2)
+        a.set_ylabel(r"$f'$ [1/s]")
+        a.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        b.semilogy(t, np.abs(Z[:, 1] - np.cos(t)) + 1e-12, c="k", lw=0.6)
+        b.set_ylim(1e-8, 10)
+        b.set_ylabel(r"$|z_1 - f'|$ [1/s]")
+        b.set_xlabel("$t$ [s]")
+        a.set_title(f"$L$ = {10**log10_L:.3g}, noise $\\varepsilon$ = {10**log10_noise:.1e}",
+                    fontsize=10)
+        fig.tight_layout()
+    return fig
+
+
+def convergence_animation(tc: dict, t_end: float = 2.5, frames: int = 30):
+    """Figure and frame update of the animation of notebook 02: the error norm of a
+    :func:`theory_check` result revealed up to ``t_end`` [s] beside its bound (34).
+    Returns ``(fig, update, n_frames)`` for :func:`vehicle_observers.results.teaching.animation`."""
+    from vehicle_observers.results.teaching import frame_indices
+
+    k_end = int(np.searchsorted(tc["t"], t_end))
+    tt, en, bd = tc["t"][:k_end], tc["err_norm"][:k_end], tc["bound_paper"][:k_end]
+    idx = frame_indices(len(tt), frames)
+    with plt.style.context(STYLE):
+        fig, ax = plt.subplots(figsize=(6, 3))
+        ax.set_xlim(0, tt[-1])
+        ax.set_ylim(1e-4, 3 * bd.max())
+        ax.set_yscale("log")
+        (l_e,) = ax.plot([], [], c="k", label=r"$\|e(t)\|$ simulated")
+        (l_b,) = ax.plot([], [], c="C1", lw=1.6, label=f"bound (34), $\\alpha$ = {tc['alpha']:g}")
+        ax.set_xlabel("$t$ [s]")
+        ax.set_ylabel("norm (state (12), mixed units)")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        fig.tight_layout()
+
+    def update(i):
+        l_e.set_data(tt[: idx[i]], en[: idx[i]])
+        l_b.set_data(tt[: idx[i]], bd[: idx[i]])
+
+    return fig, update, len(idx)
+
+
 def columns(rows: list[dict], keys=None, digits: int = 4) -> dict:
     """Rows -> ``{key: [values]}`` (for metrics.json), numbers at ``digits`` significant digits."""
     keys = keys or list(dict.fromkeys(k for r in rows for k in r))
