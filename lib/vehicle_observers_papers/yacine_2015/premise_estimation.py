@@ -546,6 +546,31 @@ def convergence_animation(tc: dict, t_end: float = 2.5, frames: int = 30):
     return fig, update, len(idx)
 
 
+#: readable column headings (with units) of the notebook's tables, by row key
+LABELS = {"alpha": "alpha [1/s]", "config": "LMI problem", "feasible": "solver found a solution",
+          "c": "ISS gain c", "P_condition": "cond(P)", "xi_min_relative": "relative margin of (33)",
+          "status": "certificate", "pole_dt": "|pole| x Ts", "lmi": "violated LMI",
+          "violation": "violation (largest eigenvalue)", "truth": "truth",
+          "rmse_vy": "RMSE v_y observer [m/s]", "rmse_vy_premise": "RMSE v_y premise (26) [m/s]",
+          "ratio_vy": "observer / premise", "rmse_Ff": "RMSE F_f [N]", "rmse_Fr": "RMSE F_r [N]",
+          "rmse_rho": "RMSE rho [1/m]", "max_rho": "max |rho error| [1/m]",
+          "clipped_slip_fraction": "slip premises clipped (fraction)",
+          "clipped_vx_fraction": "v_x premise clipped (fraction)", "noise_scale": "noise std x",
+          "vision_rate_hz": "camera [Hz] (None: 1 kHz)", "T": "T [s]", "horizon": "horizon [s]",
+          "max_ratio": "max ||e|| / (34)", "max_ratio_iss": "max ||e|| / ISS (40)",
+          "bound_end": "(34) at the end", "err_after_5s": "max ||e|| after 5 s",
+          "t_informative": "(45) < ||e(0)|| after [s]", "T_settle_vy": "v_y within 1e-3 m/s after [s]"}
+
+
+def table(rows: list[dict], keys, title: str = ""):
+    """``show_table`` of ``rows`` restricted to ``keys``, headed by :data:`LABELS`."""
+    from vehicle_observers.results.tables import show_table
+
+    lab = [LABELS.get(k, k) for k in keys]
+    return show_table([{lb: r.get(k) for k, lb in zip(keys, lab, strict=True)} for r in rows], lab,
+                      title=title)
+
+
 def columns(rows: list[dict], keys=None, digits: int = 4) -> dict:
     """Rows -> ``{key: [values]}`` (for metrics.json), numbers at ``digits`` significant digits."""
     keys = keys or list(dict.fromkeys(k for r in rows for k in r))
