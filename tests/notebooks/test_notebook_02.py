@@ -79,9 +79,10 @@ def test_alpha_feasibility_is_limited_by_the_added_bound_not_by_33(m):
 def test_inconclusive_lmi_solutions_never_count_as_feasible(m):
     """Sign-feasible is not certified: below a relative margin of 1e-9 or above cond(P) = 1e8
     the certificate is inconclusive (design.lmi.Certificate.status). (33) alone at alpha = 10
-    (cond(P) > 1e8) is inconclusive, so of the 3 alphas 2 are certified, the largest being 1;
-    the Theorem 1 claim is graded on (33) alone at the paper's alpha (certified), the sweep is
-    a diagnostic whose verdict is partly."""
+    (cond(P) > 1e8) is inconclusive; at alpha = 1 the relative margin (~2e-9) is only about twice
+    the threshold, so the counts follow the statuses rather than fixed numbers. The Theorem 1
+    claim is graded on (33) alone at the paper's alpha (certified, margin ~6e-8), the sweep is a
+    diagnostic whose verdict is partly."""
     s = m["lmi_study"]
     for feas, cond, rel, status in zip(s["feasible"], s["P_condition"], s["xi_min_relative"],
                                        s["status"]):
@@ -89,9 +90,13 @@ def test_inconclusive_lmi_solutions_never_count_as_feasible(m):
             assert status == ("certified" if rel >= 1e-9 and cond <= 1e8 else "inconclusive")
     alone = [(a, st) for a, c, st in zip(s["alpha"], s["config"], s["status"]) if c == "(33) alone"]
     assert m["lmi_alone_n"] == len(alone) == 3
-    assert m["lmi_alone_certified"] == sum(st == "certified" for _, st in alone) == 2
-    assert m["lmi_alone_inconclusive"] == 1 and dict(alone)[10.0] == "inconclusive"
-    assert m["lmi_alone_max_certified_alpha"] == 1.0 and m["lmi_alone_certified_all"] is False
+    st = dict(alone)
+    assert st[0.001] == "certified" and st[10.0] == "inconclusive"
+    assert m["lmi_alone_certified"] == sum(v == "certified" for v in st.values())
+    assert m["lmi_alone_inconclusive"] == sum(v == "inconclusive" for v in st.values())
+    assert m["lmi_alone_certified"] + m["lmi_alone_inconclusive"] == 3     # all sign-feasible
+    assert m["lmi_alone_max_certified_alpha"] == max(a for a, v in st.items() if v == "certified")
+    assert m["lmi_alone_certified_all"] is False
     assert m["lmi_paper_status"] == "certified" and m["lmi_status"] == "certified"
     assert m["lmi_paper_xi_min_relative"] >= 1e-9 and m["lmi_paper_P_condition"] <= 1e8
     assert _claim(m, "Theorem 1 (33)")["verdict"] == "reproduced"
