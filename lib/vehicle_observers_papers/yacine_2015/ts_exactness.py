@@ -314,7 +314,7 @@ def sector_sweep_figure(tyre, alpha_max: float, alpha_end: float, name: str = "f
     ax.plot(deg, Mmax * a / 1e3, "--", color=PALETTE[0], lw=1.0, label=r"$M_{\max}\alpha$")
     ax.plot(deg, Mmin * a / 1e3, "--", color=PALETTE[1], lw=1.0, label=r"$M_{\min}\alpha$")
     ax.axvline(np.degrees(alpha_max), color="0.5", lw=0.8, ls=":")
-    (seg,) = ax.plot([], [], color="0.3", lw=2.5, alpha=0.5)
+    (seg,) = ax.plot([], [], color=PALETTE[3], lw=3.0, alpha=0.7, solid_capstyle="butt")
     (pt,) = ax.plot([], [], "o", color=PALETTE[5], ms=6)
     ax.set_xlabel(r"slip angle $\alpha$ [deg]")
     ax.set_ylabel(r"$F^S$ [kN]")
@@ -340,6 +340,7 @@ def sector_sweep_figure(tyre, alpha_max: float, alpha_end: float, name: str = "f
         txt.set_text(f"$\\alpha$ = {d:.1f} deg: " + ("inside" if inside else "OUTSIDE the sector"))
         return seg, pt, *bars, txt
 
+    update(alpha_end)       # the longest title, so the layout keeps room for it
     fig.tight_layout()
     return fig, update
 
