@@ -83,8 +83,7 @@ def output_problems(nb: nbformat.NotebookNode, figures: list[str],
                 continue
             if "image/png" in out.get("data", {}):
                 images.append(out.data["image/png"])
-            rich = {"text/html", "image/png", "text/markdown", "text/latex",
-                    "application/vnd.jupyter.widget-view+json"} & set(out.get("data", {}))
+            rich = {"text/html", "image/png", "text/markdown", "text/latex"} & set(out.get("data", {}))
             text = _text(out).strip()
             if not text or (rich and out.output_type != "stream"):
                 continue
