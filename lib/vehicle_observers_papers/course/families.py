@@ -203,6 +203,14 @@ def study(seed: int = 0, quick: bool = False, names=ESTIMATORS,
             "transient_s": float(transient_s)}
 
 
+def rescored(res: dict, transient_s: float) -> dict:
+    """``res`` with the common manoeuvre scored after ``transient_s`` instead (the estimates are
+    not re-run; the real log's scores are kept), for the live figure of notebook 00."""
+    swd = res["logs"]["swd"]
+    rm = dict(res["rmse"], swd=vy_rmse(res["estimates"]["swd"], swd, score_mask(swd, transient_s)))
+    return dict(res, rmse=rm, transient_s=float(transient_s))
+
+
 def metrics(res: dict) -> dict:
     """``{name: (value, unit, note)}`` for :meth:`Report.record`: the ``v_y`` RMSE of every
     estimator on each dataset (``<dataset>.<estimator>.rmse_vy``) and the scored durations."""
