@@ -64,3 +64,7 @@ sensor_noise = (0.02, 0.02, 0.002, 0.05, 0.05)  # std of [vx, vy, r, w_f, w_r] (
 #: the printed adaptation (20)-(22) adapts all 8 entries of theta; the default
 #: ``force_gains`` adapts only the F0/sigma entries
 P_FULL = (5.0,) * 8
+#: the paper's configuration of observer (10): sign() switching (10) and the printed
+#: adaptation law (20)-(22) on all 8 entries of theta; every paper claim of Part A is graded
+#: on it (the boundary layer and the F0/sigma-only adaptation are variants beside it)
+paper_gains = force_gains.with_(mode=0, P=P_FULL)
