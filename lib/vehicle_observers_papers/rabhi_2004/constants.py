@@ -12,7 +12,8 @@ Sign slip in the printed (18) and (22): with ``theta~ = theta - theta^``,
 ``x~4' = -A x~4 + Psi(X^) theta~`` (the paper prints ``- Psi theta~``) and
 ``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``. The observer uses this
 stabilising sign; the printed sign amounts to ``P -> -P`` and drives theta^ to its
-projection bounds (notebook 05, Exercise 3). The numerical constants we use instead (vehicle,
+projection bounds (notebook 05, section "The printed sign of (18), (22)"). The numerical
+constants we use instead (vehicle,
 tyres, suspension, gains, steps) are chosen in :mod:`vehicle_observers.models.planar`,
 :mod:`vehicle_observers.models.fullcar` and :mod:`vehicle_observers.observers.sliding_mode`
 and listed with their sources there; the values this reproduction uses are collected at the
