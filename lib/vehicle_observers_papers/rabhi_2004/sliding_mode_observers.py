@@ -82,26 +82,6 @@ def knob_run(man, Xs, phi_scale: float = 1.0, noise_scale: float = 1.0, seed: in
     return show_table(rows, title=f"noise x{noise_scale:g}")
 
 
-def knob_explorer(man, Xs, phi_scale: float = 1.0, noise_scale: float = 1.0, seed: int = 0,
-                  interactive: bool = False):
-    """Sliders for :func:`knob_run`: boundary-layer width (log10 of the multiplier) and noise
-    multiplier -> force RMSE and chattering table. ``interactive=False`` (papermill, quick
-    runs) returns ``None`` and shows nothing; else the ipywidgets container."""
-    if not interactive:
-        return None
-    import ipywidgets as w
-    from IPython.display import display
-
-    def show(log10_phi, noise):
-        display(knob_run(man, Xs, phi_scale=10.0 ** log10_phi, noise_scale=noise, seed=seed))
-
-    return w.interactive(
-        show, log10_phi=w.FloatSlider(value=float(np.log10(phi_scale)), min=-1.0, max=2.0,
-                                      step=0.25, description="log10 phi x", continuous_update=False),
-        noise=w.FloatSlider(value=noise_scale, min=0.0, max=3.0, step=0.5, description="noise x",
-                            continuous_update=False))
-
-
 def warp_invisibility(p=R.fullcar) -> dict:
     """The static warp state ``x11 = w`` on the road ``U_w = K_t^-1 (K_s + K_t) w``
     (``fullcar.warp_vector``): max |paper output (29)| and max |x11| (the wheel offset the
