@@ -680,7 +680,9 @@ def paper_claims(m: dict) -> list[dict]:
                               "peak force) kept under every model error, partly under the errors "
                               "the adaptation can absorb (tyre parameters, radius)"),
              note=f"mass +10 %: {m['A_paper_robust_m_rmse_pct_max']:.3g} % (scale ambiguity of m a_y); "
-                  f"wheel radius +2 %: {m['A_paper_robust_wheel_radius_rmse_pct_max']:.3g} %; "
+                  f"wheel radius +2 %: {m['A_paper_robust_wheel_radius_rmse_pct_max']:.3g} % "
+                  "(the longitudinal 1/sigma entries, adapted without persistent excitation, run to "
+                  "their projection bounds; adapting only F0/sigma absorbs the radius error); "
                   f"boundary-layer variant: {max(m[f'A_robust_{k}_rmse_pct_max'] for k in rob):.3g} % "
                   "(row below)"),
         dict(item="Sec. V road condition", figure="figA_mu_step",
@@ -797,7 +799,7 @@ def _xlabel(axes):
 
 #: colours of the estimators in every figure of notebook 05
 C_PAPER, C_SAT, C_LPF, C_EKF = PALETTE[1], PALETTE[0], PALETTE[5], PALETTE[3]
-C_DEFL, C_MOD = PALETTE[0], PALETTE[4]
+C_DEFL, C_MOD = PALETTE[0], PALETTE[3]
 
 
 def _late_ylim(ax, t, errs, t0: float = 0.5, pad: float = 1.3):
@@ -808,16 +810,20 @@ def _late_ylim(ax, t, errs, t0: float = 0.5, pad: float = 1.3):
     ax.set_ylim(-lim, lim)
 
 
-def _fig_legend(fig, axes, ncol: int = 5, top: float = 0.93):
+def _fig_legend(fig, axes, ncol: int = 5, top: float | None = None):
     """One legend for the figure, above the axes (off the data): the labelled lines of
-    ``axes``, each label once."""
+    ``axes``, each label once. The space is reserved by an empty suptitle of as many lines as
+    the legend has rows (``tight_layout``, also the one ``Report.savefig`` applies, keeps
+    room for a suptitle, not for a figure legend). ``top`` is accepted for old callers."""
     seen = {}
     for ax in np.ravel(axes):
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             seen.setdefault(lab, h)
+    rows = -(-len(seen) // ncol)
+    fig.suptitle("\n" * rows + " ", fontsize=9)
     fig.legend(list(seen.values()), list(seen), loc="upper center", ncol=ncol, fontsize=8,
                frameon=False, bbox_to_anchor=(0.5, 1.0))
-    fig.tight_layout(rect=(0, 0, 1, top))
+    fig.tight_layout()
 
 
 def _window(t, t0, width):
@@ -948,8 +954,8 @@ def fig_forces(man, Xs, runs: dict):
         ax[0, i].set_title(tex, fontsize=9)
         ax[0, i].set_ylabel(f"{tex} [N]")
         ax[1, i].set_ylabel(f"{tex} error [N]")
-        ax[1, i].set_title("RMSE " + ", ".join(f"{o['rmse_pct_' + nm]:.2g}" for o in runs.values())
-                           + " % of peak", fontsize=8)
+        ax[1, i].set_title("RMSE [% of peak]: " + ", ".join(
+            f"{lab.split(',')[0]} {o['rmse_pct_' + nm]:.2g}" for lab, o in runs.items()), fontsize=8)
         _late_ylim(ax[1, i], t, errs)
     _xlabel(ax[1])
     _fig_legend(fig, ax, ncol=len(runs) + 1)
@@ -994,25 +1000,30 @@ def fig_chattering(man, Xs, A: dict, rows: list[dict], zoom=None):
 
 def fig_mu_step(man, Xs, runs: dict, mode: str = "sign", t_step: float | None = None):
     """2x2 axes: friction step (:func:`mu_step_study`): F_xf and F_yf [N] true vs the observer
-    with and without adaptation (``mode``), and their errors [N]; dotted line at the step."""
+    (``mode``) with the printed law (all theta adapted: the paper's configuration), with the
+    F0/sigma entries only, and without adaptation (top); their errors [N] (bottom, scaled
+    after the 0.5 s start transient); dotted line at the step."""
     t = man.t
     ts = t[-1] / 2 if t_step is None else t_step
-    fig, ax = plt.subplots(2, 2, figsize=(11, 5.5), sharex=True)
+    labels = (("full", "printed law, all theta (paper)", C_PAPER), ("partial", "F0/sigma only", C_SAT),
+              ("none", "no adaptation", C_EKF))
+    fig, ax = plt.subplots(2, 2, figsize=(11, 5.8), sharex=True)
     for col, (i, nm) in enumerate(((0, "F_{xf}"), (2, "F_{yf}"))):
-        ax[0, col].plot(*decimate(t, Xs[:, 8 + i]), "k", lw=2.2, alpha=0.6, label="true")
-        for j, lab in enumerate(("partial", "full", "none")):
-            est = runs[(mode, lab)]["res"].x4[:, i]
-            ax[0, col].plot(*decimate(t, est), "--", color=CB[j], lw=0.9, label=f"adaptation {lab}")
-            ax[1, col].plot(*decimate(t, Xs[:, 8 + i] - est), color=CB[j], lw=0.8, label=f"adaptation {lab}")
+        ax[0, col].plot(*decimate(t, Xs[:, 8 + i]), "k", lw=2.4, alpha=0.5, label="true")
+        errs = []
+        for key, lab, c in labels:
+            est = runs[(mode, key)]["res"].x4[:, i]
+            errs.append(est - Xs[:, 8 + i])
+            ax[0, col].plot(*decimate(t, est), "--", color=c, lw=0.9, label=lab)
+            ax[1, col].plot(*decimate(t, est - Xs[:, 8 + i]), color=c, lw=0.7, label=lab)
+        _late_ylim(ax[1, col], t, errs)
         ax[0, col].set_ylabel(f"${nm}$ [N]")
-        ax[1, col].set_ylabel(f"error ${nm}$ [N]")
+        ax[1, col].set_ylabel(f"${nm}$ error (observer - true) [N]")
         for r in (0, 1):
             ax[r, col].axvline(ts, color="0.4", ls=":", lw=1)
-        ax[0, col].set_title(f"${nm}$, friction step $\\mu$: 1 $\\to$ 0.5 ({mode})", fontsize=9)
-        ax[1, col].legend(fontsize=6)
-    ax[0, 0].legend(fontsize=6)
+        ax[0, col].set_title(f"${nm}$, friction step $\\mu$: 1 $\\to$ 0.5 at {ts:g} s ({mode})", fontsize=9)
     _xlabel(ax[1])
-    fig.tight_layout()
+    _fig_legend(fig, ax, ncol=4)
     return fig
 
 
@@ -1177,12 +1188,31 @@ def fig_body_rates(P: dict, road_name: str = "D"):
     return fig
 
 
+def lost_road_part(o: dict) -> tuple:
+    """The part of the road the outputs (29) cannot see, for a run ``o`` of
+    :func:`.experiments.part_b_paper_run`: ``(u, e, pred)`` (N,) [m], the true road and the raw
+    road error along the first lost road pattern (:func:`.observers.sliding_mode.road_lost_subspace`),
+    and the predicted error ``-H(s) u`` with ``H(s) = (2 tau s + 1) / (tau s + 1)^2``,
+    ``tau`` = ``design.tau_w``: the estimate's lost component is the road's passed through
+    the high-pass ``tau^2 s^2 / (tau s + 1)^2`` (measured accelerations integrated twice, both
+    lost states pulled to zero with ``tau``), so the error is minus the complement, the slow
+    part of the road's warp (bilinear discretisation at the run's step)."""
+    from scipy.signal import cont2discrete, dlsim
+
+    t, U, design = o["t"], o["U"], o["design"]
+    q = smo.road_lost_subspace(R.fullcar, design)[:, 0]
+    tau = design.tau_w
+    u, e = U @ q, (o["res"].U - U) @ q
+    sysd = cont2discrete(([2 * tau, 1.0], [tau ** 2, 2 * tau, 1.0]), t[1] - t[0], method="bilinear")
+    return u, e, -dlsim(sysd, u)[1][:, 0]
+
+
 def fig_road_profile(P: dict, roads=("D", "belgian"), w: int = WHEEL_FR, zoom=(2.0, 2.6)):
     """Fig. 10 analogue (len(roads) x 3 axes), road under wheel ``w`` [mm]: a zoom of the truth,
     the raw estimate on the paper's outputs (29) and the estimate with one deflection sensor
     (left); the road errors after the start transient, raw, modulo the warp patterns and with
     the deflection sensor (middle); the component of the true road and of the raw error along
-    the lost warp pattern (right: the part of the road (29) cannot see). On the Belgian block
+    the lost warp pattern with its prediction :func:`lost_road_part` (right). On the Belgian block
     the 10 m sample is mirror-extended, so the road repeats every 20 m (dotted lines, one
     period apart): so do the error spikes."""
     fig, ax = plt.subplots(len(roads), 3, figsize=(14, 3.5 * len(roads)), squeeze=False,
@@ -1208,18 +1238,17 @@ def fig_road_profile(P: dict, roads=("D", "belgian"), w: int = WHEEL_FR, zoom=(2
         _late_ylim(ax[row, 1], tt, [1e3 * e for e, _, _ in errs.values()], t0=1.0, pad=1.15)
         ax[row, 1].set_ylabel("road error $\\hat U_4 - U_4$ [mm]")
         ax[row, 1].set_title(f"road {nm}: error after the start transient (t > 1 s)", fontsize=9)
-        q = Q[:, 0]
-        ax[row, 2].plot(*decimate(tt, 1e3 * U @ q), color="k", lw=0.8, alpha=0.6,
-                        label="true road along the lost pattern")
-        ax[row, 2].plot(*decimate(tt, 1e3 * (o["res"].U - U) @ q), color=C_PAPER, lw=0.8,
-                        label="raw error along it")
-        ax[row, 2].set_ylabel("component on the warp pattern [mm]")
-        ax[row, 2].set_title(f"road {nm}: what (29) cannot see", fontsize=9)
-        m = tt >= 1.0
-        lim = 1.15e3 * float(np.max(np.abs(U[m] @ q)))
-        ax[row, 2].set_ylim(-lim, lim)
+        _, e_lost, pred = lost_road_part(o)
+        ax[row, 2].plot(*decimate(tt, 1e3 * e_lost), color=C_PAPER, lw=1.0,
+                        label="raw error along the lost pattern")
+        ax[row, 2].plot(*decimate(tt, 1e3 * pred), "--", color="k", lw=0.8,
+                        label=r"$-$slow part of the road's warp, $(2\tau s+1)/(\tau s+1)^2$")
+        ax[row, 2].set_ylabel("component on the lost road pattern [mm]")
+        ax[row, 2].set_title(f"road {nm}: the error is the slow part of the road's warp", fontsize=9)
+        _late_ylim(ax[row, 2], tt, [1e3 * e_lost, 1e3 * pred], t0=1.0, pad=1.15)
         if nm == "belgian":
             period = 20.0 / R.speed_belgian       # mirror-extended 10 m sample: period 20 m
+            m = tt >= 1.0
             k = np.argmax(np.abs((o["res"].U - U)[m, w]))
             t_pk = tt[m][k] % period
             for a_ in ax[row, 1:]:
