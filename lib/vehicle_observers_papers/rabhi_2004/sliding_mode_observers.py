@@ -834,7 +834,8 @@ def fig_velocities(man, Xs, a: dict, t_zoom: float = 0.4, t_mid: float | None = 
     """Fig. 4 analogue (4x3 axes), run ``a`` of :func:`.experiments.part_a_run` (the notebook
     passes the paper's configuration): row 0 the inputs (steering [deg], wheel torques [N m]);
     row 1 ``x2 = (v_x, v_y, r)`` true vs observer; row 2 the errors over the first ``t_zoom`` s
-    (finite-time reaching: a straight line of slope -lambda, dotted the bound |e(0)| - lambda t);
+    (finite-time reaching: close to the line of slope -lambda, dotted |e(0)| - lambda t, the
+    undisturbed sign() observer);
     row 3 the errors in a 50 ms window at ``t_mid`` (default mid-run): the discrete sliding
     mode chatters within +-lambda dt (dotted)."""
     t = man.t
@@ -862,7 +863,7 @@ def fig_velocities(man, Xs, a: dict, t_zoom: float = 0.4, t_mid: float | None = 
         ax[2, j].plot(1e3 * t[z0], e[z0], color=C_PAPER, lw=1.0, label="error (true - observer)")
         bound = np.sign(e[0]) * np.maximum(abs(e[0]) - lam[j] * t[z0], 0.0)
         ax[2, j].plot(1e3 * t[z0], bound, ":", color="k", lw=1.0,
-                      label=r"sign() bound $|e(0)| - \lambda t$")
+                      label=r"undisturbed sign(): $|e(0)| - \lambda t$")
         ax[2, j].set_xlabel("$t$ [ms]")
         ax[2, j].set_ylabel(rf"$\tilde {nm}$ [{unit}]")
         ax[2, j].set_title(f"reaching: {1e3 * a['t_reach_' + R.X2_NAMES[j]]:.0f} ms", fontsize=9)
@@ -903,7 +904,7 @@ def fig_wheel_speeds(man, Xs, a: dict, t_zoom: float = 0.03, t_mid: float | None
         ax[0, 1].plot(1e3 * t[z0], e[z0], ("-", "-.")[j], color=c, label=rf"$\tilde{nm}$")
         bound = np.sign(e[0]) * np.maximum(abs(e[0]) - lam3[j] * t[z0], 0.0)
         ax[0, 1].plot(1e3 * t[z0], bound, ":", color="k", lw=1.0,
-                      label=r"sign() bound $|e(0)| - \lambda_3 t$" if j == 0 else None)
+                      label=r"undisturbed sign(): $|e(0)| - \lambda_3 t$" if j == 0 else None)
         ax[1, 0].plot(1e3 * (t[zm] - t_mid), e[zm], color=c, lw=0.9, drawstyle="steps-post")
         late = t >= 0.5
         n = int(round(0.1 / dt))
@@ -920,7 +921,7 @@ def fig_wheel_speeds(man, Xs, a: dict, t_zoom: float = 0.03, t_mid: float | None
     ax[0, 0].set_ylabel("wheel speed [rad/s]")
     ax[0, 0].set_title("zoom on the start: the estimate reaches the truth", fontsize=9)
     ax[0, 1].set_ylabel("wheel-speed error [rad/s]")
-    ax[0, 1].set_title(f"reaching: {1e3 * a['t_reach_omega_f']:.0f} ms (bound "
+    ax[0, 1].set_title(f"reaching: {1e3 * a['t_reach_omega_f']:.0f} ms (|e(0)|/$\\lambda_3$ = "
                        f"{1e3 * a['t_nominal_omega_f']:.0f} ms)", fontsize=9)
     ax[1, 0].set_ylabel("wheel-speed error [rad/s]")
     ax[1, 0].set_title("on the surface: steps of $\\lambda_3 dt$ every sample", fontsize=9)
@@ -1081,7 +1082,7 @@ def fig_ekf_forces(man, Xs, ek: dict):
                       (Ec, Ec["res"].t, Ec["res"].F[:, i] - Fb[:len(Ec["res"].t)], C_EKF)]
             lim = 0.0
             for _, tt, e, c in sorted(curves, key=lambda cv: -cv[0][f"rmse_{nm}"]):
-                ax[row, i].plot(*decimate(tt, e), color=c, lw=0.6)
+                ax[row, i].plot(*decimate(tt, e), color=c, lw=0.6, alpha=0.55 if c == C_PAPER else 1.0)
                 lim = max(lim, 1.2 * float(np.abs(e[tt >= 1.0]).max()))
             ax[row, i].set_ylim(-lim, lim)
             ax[row, i].set_ylabel(f"{tex} error [N]")
