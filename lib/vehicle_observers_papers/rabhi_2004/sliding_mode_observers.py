@@ -1022,7 +1022,7 @@ def fig_mu_step(man, Xs, runs: dict, mode: str = "sign", t_step: float | None = 
         ax[1, col].set_ylabel(f"${nm}$ error (observer - true) [N]")
         for r in (0, 1):
             ax[r, col].axvline(ts, color="0.4", ls=":", lw=1)
-        ax[0, col].set_title(f"${nm}$, friction step $\\mu$: 1 $\\to$ 0.5 at {ts:g} s ({mode})", fontsize=9)
+        ax[0, col].set_title(f"${nm}$, friction step $\\mu$: 1 $\\to$ 0.5 at {ts:.1f} s ({mode})", fontsize=9)
     _xlabel(ax[1])
     _fig_legend(fig, ax, ncol=4)
     return fig
@@ -1132,40 +1132,46 @@ def fig_road_psd(psd: dict):
 
 def fig_wheels(P: dict, road_name: str = "D", w: int = WHEEL_FR, zoom=(2.0, 2.5)):
     """Fig. 8 analogue (2x2 axes), *estimated* wheel ``w`` states from :func:`paper_output_runs`
-    ``P``: displacement [mm] true vs the observer on the paper's outputs (29) and with one
-    deflection sensor; its error [mm] (paper outputs: raw and modulo the warp patterns);
-    wheel velocity [m/s] zoom and its error [m/s]."""
+    ``P``: displacement [mm] true vs the observer on the paper's outputs (29) (raw, graded)
+    and with one deflection sensor, in a zoom; its error [mm] (raw, modulo the warp patterns,
+    with the sensor) after the 1 s start transient; wheel velocity [m/s] zoom and its error
+    [m/s] after the transient."""
     o, od = P[("paper", road_name)], P[("defl", road_name)]
     tb, X = o["t"], o["X"]
     Qz = np.linalg.qr(o["design"].V[0:4])[0]
     ez = o["res"].z - X[:, 0:4]
     ezm = _smo_mod(ez, Qz)
-    fig, ax = plt.subplots(2, 2, figsize=(11, 6))
+    fig, ax = plt.subplots(2, 2, figsize=(11, 6.4))
     zm = (tb > zoom[0]) & (tb < zoom[1])
-    ax[0, 0].plot(tb[zm], 1e3 * X[zm, w], "k", lw=2.2, alpha=0.6, label="true")
-    ax[0, 0].plot(tb[zm], 1e3 * o["res"].z[zm, w], "--", color=CB[0], label="paper outputs (29)")
-    ax[0, 0].plot(tb[zm], 1e3 * od["res"].z[zm, w], ":", color=CB[1], lw=1.5, label="+ deflection sensor")
-    ax[0, 0].set_ylabel("$z_4$ [mm]")
-    ax[0, 0].set_title("front-right wheel displacement (estimated), zoom", fontsize=9)
-    ax[0, 1].plot(*decimate(tb, 1e3 * ez[:, w]), color=CB[0], lw=0.8, label="paper outputs, raw")
-    ax[0, 1].plot(*decimate(tb, 1e3 * ezm[:, w]), color=CB[2], lw=0.8, label="paper outputs, modulo warp")
-    ax[0, 1].plot(*decimate(tb, 1e3 * (od["res"].z[:, w] - X[:, w])), color=CB[1], lw=0.8,
-                  label="+ deflection sensor")
-    ax[0, 1].set_ylabel("$z_4$ error [mm]")
-    ax[0, 1].set_title("displacement error (observer - true)", fontsize=9)
-    ax[1, 0].plot(tb[zm], X[zm, 7 + w], "k", lw=2.2, alpha=0.6, label="true")
-    ax[1, 0].plot(tb[zm], o["res"].v[zm, w], "--", color=CB[0], label="paper outputs (29)")
+    ax[0, 0].plot(tb[zm], 1e3 * X[zm, w], "k", lw=2.4, alpha=0.5, label="true")
+    ax[0, 0].plot(tb[zm], 1e3 * o["res"].z[zm, w], "-", color=C_PAPER, lw=1.0,
+                  label="paper outputs (29), raw")
+    ax[0, 0].plot(tb[zm], 1e3 * od["res"].z[zm, w], "--", color=C_DEFL, lw=1.0,
+                  label="+ one deflection sensor")
+    ax[0, 0].set_ylabel("front-right wheel $z_4$ [mm]")
+    ax[0, 0].set_title("wheel displacement (estimated, not measured), zoom", fontsize=9)
+    errs = [(1e3 * ez[:, w], C_PAPER, None), (1e3 * ezm[:, w], C_MOD, "modulo the warp"),
+            (1e3 * (od["res"].z[:, w] - X[:, w]), C_DEFL, None)]
+    for e, c, lab in errs:
+        ax[0, 1].plot(*decimate(tb, e), color=c, lw=0.8, label=lab)
+    _late_ylim(ax[0, 1], tb, [e for e, _, _ in errs], t0=1.0, pad=1.15)
+    ax[0, 1].set_ylabel("$z_4$ error (observer - true) [mm]")
+    ax[0, 1].set_title("displacement error after the start transient (t > 1 s)", fontsize=9)
+    ax[1, 0].plot(tb[zm], X[zm, 7 + w], "k", lw=2.4, alpha=0.5)
+    ax[1, 0].plot(tb[zm], o["res"].v[zm, w], "-", color=C_PAPER, lw=1.0)
+    ax[1, 0].plot(tb[zm], od["res"].v[zm, w], "--", color=C_DEFL, lw=1.0)
     ax[1, 0].set_ylabel(r"$\dot z_4$ [m/s]")
     ax[1, 0].set_title("wheel velocity, zoom", fontsize=9)
-    ax[1, 0].set_xlabel("$t$ [s]")
-    ax[1, 1].plot(*decimate(tb, o["res"].v[:, w] - X[:, 7 + w]), color=CB[0], lw=0.8, label="paper outputs")
-    ax[1, 1].plot(*decimate(tb, od["res"].v[:, w] - X[:, 7 + w]), color=CB[1], lw=0.8,
-                  label="+ deflection sensor")
-    ax[1, 1].set_ylabel(r"$\dot z_4$ error [m/s]")
-    ax[1, 1].set_xlabel("$t$ [s]")
-    for a_ in ax.flat:
-        a_.legend(fontsize=6, loc="best")
-    fig.tight_layout()
+    ev = [o["res"].v[:, w] - X[:, 7 + w], od["res"].v[:, w] - X[:, 7 + w]]
+    for e, c in zip(ev, (C_PAPER, C_DEFL), strict=True):
+        ax[1, 1].plot(*decimate(tb, e), color=c, lw=0.7)
+    _late_ylim(ax[1, 1], tb, ev, t0=1.0, pad=1.15)
+    ax[1, 1].set_ylabel(r"$\dot z_4$ error (observer - true) [m/s]")
+    ax[1, 1].set_title("velocity error after the start transient (t > 1 s)", fontsize=9)
+    _xlabel(ax[1])
+    ax[0, 0].set_xlabel("$t$ [s]")
+    ax[0, 1].set_xlabel("$t$ [s]")
+    _fig_legend(fig, ax, ncol=4)
     return fig
 
 
