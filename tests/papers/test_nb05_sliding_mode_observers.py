@@ -1,6 +1,7 @@
 """rabhi_study (notebook 05 experiments and figures) on short horizons: 3 s manoeuvre, 1.5 s
-roads. Each experiment is checked against an independent computation or a known answer;
-each figure function for its number of axes. The full-length numbers are checked by
+roads. Each experiment is checked against an independent computation or a known answer
+(closed forms of the sliding observers, scipy and python-control, identities across routes),
+the figures for the numbers they show. The full-length numbers are checked by
 tests/notebooks/test_notebook_05.py."""
 
 import matplotlib.pyplot as plt  # the Agg backend is set by conftest.py
@@ -62,7 +63,7 @@ def _close_figures():
 # ------------------------------------------------------------------ Part A ---------------
 def test_force_modes_rmse_matches_independent_computation(truth, A):
     man, Xs = truth
-    assert list(A) == ["sign", "sat", "lpf"]
+    assert set(A) == {"sign", "sat", "lpf"}
     for mode, o in A.items():
         for i, nm in enumerate(FORCES):
             ref = _rmse_after(man.t, o["res"].x4[:, i], Xs[:, 8 + i])
@@ -187,22 +188,22 @@ def test_mu_step_truth_and_adaptation():
 
 def test_tradeoff_study_rows_and_seed(truth, A):
     rows = rs.tradeoff_study(*truth, seed=0, scales=(1, 100))
-    assert [(r["meas"], r["key"]) for r in rows] == [
-        (m, k) for m in ("clean", "noisy") for k in ("sign", "lpf", "sat_phi_1", "sat_phi_100")]
+    by = {(r["meas"], r["key"]): r for r in rows}
+    assert set(by) == {(m, k) for m in ("clean", "noisy")
+                       for k in ("sign", "lpf", "sat_phi_1", "sat_phi_100")}
     # scale 1 is the nominal sat observer, built through another path
-    sat1 = rows[2]
+    sat1 = by[("clean", "sat_phi_1")]
     assert sat1["rmse"] == pytest.approx([A["sat"][f"rmse_{n}"] for n in FORCES], rel=1e-12)
     assert sat1["rmse_mean"] == pytest.approx(np.mean(sat1["rmse"]))
     # a 100x wider layer is a low-gain linear observer: lag, larger error on clean data
-    assert rows[3]["rmse_mean"] > 2 * sat1["rmse_mean"]
+    assert by[("clean", "sat_phi_100")]["rmse_mean"] > 2 * sat1["rmse_mean"]
     # the noise is drawn from the seed: clean rows do not depend on it, noisy rows do
-    other = rs.tradeoff_study(*truth, seed=1, scales=(1,))
-    assert other[2]["rmse_mean"] == sat1["rmse_mean"]
-    assert other[5]["rmse_mean"] != rows[6]["rmse_mean"]
+    other = {(r["meas"], r["key"]): r for r in rs.tradeoff_study(*truth, seed=1, scales=(1,))}
+    assert other[("clean", "sat_phi_1")]["rmse_mean"] == sat1["rmse_mean"]
+    assert other[("noisy", "sat_phi_1")]["rmse_mean"] != by[("noisy", "sat_phi_1")]["rmse_mean"]
     m = rs.tradeoff_metrics(rows)
-    assert m["A_tradeoff_noisy_sat_phi_100_chatter_mean"] == (rows[7]["chatter_mean"], "N",
-                                                              "mean step-to-step std")
-    assert len(rs.tradeoff_table(rows).splitlines()) == 1 + len(rows)
+    assert m["A_tradeoff_noisy_sat_phi_100_chatter_mean"] == (by[("noisy", "sat_phi_100")]["chatter_mean"],
+                                                              "N", "mean step-to-step std")
 
 
 def test_robustness_study(A, rob):
@@ -216,7 +217,6 @@ def test_robustness_study(A, rob):
     m = rs.robustness_metrics(rob)
     assert m["A_robust_wheel_radius_noadapt_rmse_pct_max"] == (
         max(radius["noadapt"]), "% of peak", "wheel radius +2 %, P = 0")
-    assert len(m) == 2 * len(rob)
 
 
 def test_ekf_study_and_metrics(truth, A, ek):
@@ -307,15 +307,15 @@ def test_ekf_robustness_reuses_nominal_for_tyre_parameters(truth, ek, rob):
     cases = [c for c in rs.ROBUST_CASES_A if c[1] in ("nominal", "slip", "m")]
     rows = rs.ekf_robustness(*truth, ek, seed=0, cases=cases)
     nominal = max(ek["E"]["clean"][f"rmse_pct_{n}"] for n in FORCES)
-    assert [r["metric"] for r in rows] == ["A_ekf_robust_nominal_rmse_pct_max",
-                                           "A_ekf_robust_m_p10_pct_rmse_pct_max",
-                                           "A_ekf_robust_slip_stiffness_m20_pct_rmse_pct_max"]
-    assert rows[0]["value"] == rows[2]["value"] == nominal
-    assert rows[1]["value"] != nominal    # the mass is in the EKF model
+    v = {r["metric"]: r["value"] for r in rows}
+    assert set(v) == {"A_ekf_robust_nominal_rmse_pct_max", "A_ekf_robust_m_p10_pct_rmse_pct_max",
+                      "A_ekf_robust_slip_stiffness_m20_pct_rmse_pct_max"}
+    assert v["A_ekf_robust_nominal_rmse_pct_max"] == v["A_ekf_robust_slip_stiffness_m20_pct_rmse_pct_max"] \
+        == nominal
+    assert v["A_ekf_robust_m_p10_pct_rmse_pct_max"] != nominal    # the mass is in the EKF model
     m = rs.row_metrics(rows)
-    assert m["A_ekf_robust_m_p10_pct_rmse_pct_max"] == (rows[1]["value"], "% of peak",
-                                                        "m +10 %, EKF rule 1")
-    assert len(rs.ekf_robustness_table(rows, rob).splitlines()) == 3
+    assert m["A_ekf_robust_m_p10_pct_rmse_pct_max"] == (v["A_ekf_robust_m_p10_pct_rmse_pct_max"],
+                                                        "% of peak", "m +10 %, EKF rule 1")
 
 
 # ------------------------------------------------------------------ Part B ---------------
@@ -341,27 +341,25 @@ def test_road_runs_and_metrics(Bres):
     d = rs.road_metrics(Bres)
     assert d["B_t_bound_z"] == (5e-3 / R.road_gains.h11, "s", "|e(0)|/H11")
     assert d["B_D_sat_U_rmse_pct_4"] == (o["U_rmse_pct_4"], "% of profile RMS", fullcar.WHEELS[3])
-    assert len(d) == 6 * (3 * 4 + 2) + 3 + 1
-    assert len(rs.road_table(Bres).splitlines()) == 6
+    for road, mode in Bres:
+        assert f"{road:8s} {mode:5s}" in rs.road_table(Bres)
 
 
 def test_road_sweep_and_robustness(Bres):
     rows = rs.road_sweep(T_B, seed=0, scales=(1, 100), noises=(1e-4,))
-    assert [r["metric"] for r in rows] == [
-        "B_D_sat_phi1_U_rmse_pct_mean", "B_D_sat_phi100_U_rmse_pct_mean",
-        "B_D_sign_noise100um_U_rmse_pct_mean", "B_D_sat_noise100um_U_rmse_pct_mean",
-        "B_D_sat_phi2x10_noise100um_U_rmse_pct_mean"]
-    assert rows[0]["value"] == pytest.approx(Bres[("D", "sat")]["U_rmse_pct_mean"], rel=1e-12)
-    assert rows[1]["value"] > rows[0]["value"]          # wider layer: lag
-    assert rows[3]["value"] > rows[0]["value"]          # noise costs accuracy
-    assert rows[4]["value"] < rows[3]["value"]          # wider stage-2 layer filters it
+    v = {r["metric"][4:-16]: r["value"] for r in rows}     # "B_D_<key>_U_rmse_pct_mean"
+    assert set(v) == {"sat_phi1", "sat_phi100", "sign_noise100um", "sat_noise100um",
+                      "sat_phi2x10_noise100um"}
+    assert v["sat_phi1"] == pytest.approx(Bres[("D", "sat")]["U_rmse_pct_mean"], rel=1e-12)
+    assert v["sat_phi100"] > v["sat_phi1"]                   # wider layer: lag
+    assert v["sat_noise100um"] > v["sat_phi1"]               # noise costs accuracy
+    assert v["sat_phi2x10_noise100um"] < v["sat_noise100um"]  # wider stage-2 layer filters it
     robB = rs.road_robustness(T_B, seed=0, cases=rs.ROBUST_CASES_B[:2])
-    assert robB[0]["value"] == rows[0]["value"]
+    assert robB[0]["value"] == v["sat_phi1"]
     assert robB[1]["value"] != robB[0]["value"]
     m = rs.row_metrics(rows + robB)
     assert m["B_robust_m_u_U_rmse_pct_mean"] == (robB[1]["value"], "% of profile RMS", "m_u +10 %")
     assert m["B_D_sat_phi1_U_rmse_pct_mean"][1:] == ("%", "")
-    assert len(rs.sweep_table(rows + robB).splitlines()) == 7
 
 
 def test_paper_output_runs_use_no_wheel_displacement(P):
@@ -431,20 +429,33 @@ def test_warp_invisibility_known_answer():
 
 
 # ------------------------------------------------------------------ figures --------------
-def test_part_a_figures(truth, A, ek, rob):
+def test_part_a_figures_show_the_runs_numbers(truth, A, ek, rob):
+    """Known answers read off the figures: Fig. 5 titles the run's reaching time of the front
+    wheel-speed surface; Fig. 6's error axes are +-1.3 x the largest error after 0.5 s (the
+    start transient clipped) and its titles carry each run's RMSE; the friction-step error axes
+    follow the same rule. The other Part A figures build."""
     man, Xs = truth
-    a = A["sat"]
+    a = A["sign"]
+    f5 = rs.fig_wheel_speeds(man, Xs, a)
+    assert f5.axes[1].get_title().startswith(f"reaching: {1e3 * a['t_reach_omega_f']:.0f} ms")
+    runs = {"sign": A["sign"], "sat": A["sat"]}
+    f6 = rs.fig_forces(man, Xs, runs)
+    late = man.t >= 0.5
+    for i, nm in enumerate(FORCES):
+        lim = 1.3 * max(np.abs(o["res"].x4[late, i] - Xs[late, 8 + i]).max() for o in runs.values())
+        ax = f6.axes[4 + i]
+        assert ax.get_ylim() == pytest.approx((-lim, lim), rel=1e-12)
+        assert f"sign {A['sign']['rmse_pct_' + nm]:.2g}" in ax.get_title()
+    man2, Xs2, mu = rs.mu_step_study(T_A)
+    fm = rs.fig_mu_step(man2, Xs2, mu)
+    late = man2.t >= 0.5
+    lim = 1.3 * max(np.abs(mu[("sign", k)]["res"].x4[late, 0] - Xs2[late, 8]).max()
+                    for k in ("full", "partial", "none"))
+    assert fm.axes[2].get_ylim() == pytest.approx((-lim, lim), rel=1e-12)
     rows = rs.tradeoff_study(man, Xs, seed=0, scales=(1,))
-    for fig, n in [(rs.fig_velocities(man, Xs, a), 12), (rs.fig_wheel_speeds(man, Xs, a), 4),
-                   (rs.fig_forces(man, Xs, {"sign": A["sign"], "sat": A["sat"]}), 8),
-                   (rs.fig_chattering(man, Xs, A, rows), 2),
-                   (rs.fig_robustness(rob), 1), (rs.fig_ekf_forces(man, Xs, ek), 12)]:
+    for fig in (rs.fig_velocities(man, Xs, a), rs.fig_chattering(man, Xs, A, rows),
+                rs.fig_robustness(rob), rs.fig_ekf_forces(man, Xs, ek)):
         assert isinstance(fig, plt.Figure)
-        assert len(fig.axes) == n
-    man2, Xs2, runs = rs.mu_step_study(T_A, modes=("sign",))
-    for fig, n in [(rs.fig_mu_step(man2, Xs2, runs), 4)]:
-        assert isinstance(fig, plt.Figure)
-        assert len(fig.axes) == n
 
 
 def test_road_observer_unobservable_directions_with_python_control():
