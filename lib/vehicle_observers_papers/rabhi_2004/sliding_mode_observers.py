@@ -964,7 +964,7 @@ def fig_forces(man, Xs, runs: dict):
 
 
 def fig_chattering(man, Xs, A: dict, rows: list[dict], zoom=None):
-    """1x2 axes: F_yf zoom [N] per switching mode (``A`` of :func:`force_modes`; ``zoom``
+    """1x2 axes: F_yf error in a zoom [N] per switching mode (``A`` of :func:`force_modes`; ``zoom``
     (t0, t1) [s], default 0.3 s from 35 % of the run) and the accuracy-vs-chattering scatter of
     :func:`tradeoff_study` rows (log-log, N), one marker per row (legend outside the data)."""
     from matplotlib.ticker import LogLocator, NullFormatter
@@ -973,11 +973,10 @@ def fig_chattering(man, Xs, A: dict, rows: list[dict], zoom=None):
     zoom = (0.35 * t[-1], 0.35 * t[-1] + 0.3) if zoom is None else zoom
     z = (t > zoom[0]) & (t < zoom[1])
     fig, ax = plt.subplots(1, 2, figsize=(12, 3.8), gridspec_kw={"width_ratios": [1, 1.3]})
-    ax[0].plot(t[z], Xs[z, 10], "k", lw=2.5, alpha=0.6, label="true")
-    for i, (mode, st) in enumerate([("sign", "-"), ("lpf", "--"), ("sat", "-.")]):
-        ax[0].plot(t[z], A[mode]["res"].x4[z, 2], st, color=CB[i], lw=0.9, label=mode)
-    ax[0].set_title("$F_{yf}$ zoom: chattering", fontsize=9)
-    ax[0].set_ylabel("$F_{yf}$ [N]")
+    for mode, c, lw in (("sign", C_PAPER, 0.6), ("lpf", C_LPF, 1.2), ("sat", C_SAT, 1.2)):
+        ax[0].plot(t[z], A[mode]["res"].x4[z, 2] - Xs[z, 10], color=c, lw=lw, label=mode)
+    ax[0].set_title("$F_{yf}$ error in a 0.3 s zoom: chattering", fontsize=9)
+    ax[0].set_ylabel("$\\hat F_{yf} - F_{yf}$ [N]")
     ax[0].set_xlabel("$t$ [s]")
     ax[0].legend(fontsize=7)
     markers = "os^vD<>ph*"
@@ -1179,19 +1178,28 @@ def _smo_mod(E, Q):
     return smo.modulo_subspace(E, Q)
 
 
-def fig_body_rates(P: dict, road_name: str = "D"):
+def fig_body_rates(P: dict, road_name: str = "D", zoom=(2.0, 3.0)):
     """Fig. 9 analogue (2x3 axes): heave [m/s], pitch and roll [rad/s] rates, truth vs the
-    observer on the paper's outputs (top; these rates are *measured* outputs of (29)) and
-    the error (bottom)."""
+    observer on the paper's outputs in a zoom (top; these rates are *measured* outputs of (29),
+    the observer's line is driven to them) and the error [mm/s, mrad/s] after the 1 s start
+    transient (bottom)."""
     o = P[("paper", road_name)]
-    fig, ax = plt.subplots(2, 3, figsize=(12, 5), sharex=True)
+    t = o["t"]
+    z = (t > zoom[0]) & (t < zoom[1])
+    fig, ax = plt.subplots(2, 3, figsize=(12, 5.4))
     for j, (nm, unit) in enumerate([(r"\dot z", "m/s"), (r"\dot\theta", "rad/s"), (r"\dot\phi", "rad/s")]):
-        _truth_vs_est(ax[0, j], o["t"], o["X"][:, 11 + j], o["res"].x22[:, j], f"${nm}$ (measured in (29))",
-                      ylabel=f"${nm}$ [{unit}]")
-        ax[1, j].plot(*decimate(o["t"], o["res"].x22[:, j] - o["X"][:, 11 + j]), color=CB[0], lw=0.8)
-        ax[1, j].set_ylabel(f"error [{unit}]")
-    _xlabel(ax[1])
-    fig.tight_layout()
+        ax[0, j].plot(t[z], o["X"][z, 11 + j], "k", lw=2.4, alpha=0.5, label="true (= measured)")
+        ax[0, j].plot(t[z], o["res"].x22[z, j], "--", color=C_PAPER, lw=1.0, label="observer (30)")
+        ax[0, j].set_ylabel(f"${nm}$ [{unit}]")
+        ax[0, j].set_title(f"${nm}$ (measured in (29)), zoom", fontsize=9)
+        e = 1e3 * (o["res"].x22[:, j] - o["X"][:, 11 + j])
+        ax[1, j].plot(*decimate(t, e), color=C_PAPER, lw=0.7)
+        _late_ylim(ax[1, j], t, [e], t0=1.0, pad=1.15)
+        ax[1, j].set_ylabel(f"error [m{unit}]")
+        ax[1, j].set_title("error after the start transient (t > 1 s)", fontsize=9)
+    for a_ in ax.flat:
+        a_.set_xlabel("$t$ [s]")
+    _fig_legend(fig, ax, ncol=2)
     return fig
 
 
