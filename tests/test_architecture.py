@@ -192,9 +192,10 @@ def test_the_reproductions_are_a_package_beside_the_library():
     folders = sorted(p.parent.name for p in papers.glob("*/__init__.py"))
     assert folders, "no reproduction folders"
     import re
-    for f in folders:   # one folder per paper, <author>_<year>, and the studies of notebooks 07-08
+    for f in folders:   # one folder per paper, <author>_<year>, the studies of notebooks 07-08
+        # and the course layer of notebook 00
         assert re.fullmatch(r"[a-z]+_(19|20)\d\d", f) or f in ("benchmark_study",
-                                                               "robustness_study"), f
+                                                               "robustness_study", "course"), f
     assert not (SRC / "papers").exists(), "paper code inside the library"
 
 

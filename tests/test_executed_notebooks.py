@@ -10,6 +10,10 @@ a bare path (``PosixPath('.../fig.png')``) or a numpy scalar repr (``np.float64(
   against the committed ``figures/<notebook>/metrics.json``; skipped with the reason when there
   is no copy or it was executed from an older version of the notebook.
 
+They also hold no warning or log text on stderr and no object repr as a cell's result, and
+every exercise is real (:func:`exercise_problems`: a stub its checker finds empty, then a hidden
+solution it finds correct, at least three per notebook).
+
 The checker itself is tested on small synthetic notebooks (one that saves a figure without
 showing it must fail).
 """
@@ -35,6 +39,12 @@ FULL_BUILD = ROOT / "build" / "notebooks"
 _PATH_RE = re.compile(r"^(?:(?:Posix|Windows|Pure\w*)?Path\(.*\)|'?(?:[\w.~-]*/)+[\w.-]+\.\w{2,4}'?)$")
 #: a numpy scalar repr (numpy >= 2 prints ``np.float64(0.28)``)
 _NP_SCALAR_RE = re.compile(r"\bnp\.(?:float|int|uint|complex|bool|longdouble|str_)\w*\(")
+
+#: an object repr shown as a cell's result: a dataclass-like ``Name(field=...)``, a default
+#: ``<module.Class object at 0x...>``, a raw numpy array or a dict dump
+_REPR_RE = re.compile(r"^(?:[A-Z]\w*\(\w+=|<[\w.]+ object at 0x|array\(\[|\{['\"])")
+#: the status line of :func:`vehicle_observers.results.teaching.check`
+_STATUS_RE = re.compile(r'data-status="([a-z ]+)"')
 
 #: notebooks that fail the check today: {(notebook, mode): reason}; strict, so an entry must go
 #: as soon as its notebook is fixed
@@ -77,8 +87,12 @@ def output_problems(nb: nbformat.NotebookNode, figures: list[str],
             text = _text(out).strip()
             if not text or (rich and out.output_type != "stream"):
                 continue
-            if _NP_SCALAR_RE.search(text):
+            if out.output_type == "stream" and out.get("name") == "stderr":
+                problems.append(f"cell {i}: warning or log text on stderr: {text[:80]!r}")
+            elif _NP_SCALAR_RE.search(text):
                 problems.append(f"cell {i}: numpy scalar repr in the output: {text[:80]!r}")
+            elif out.output_type != "stream" and _REPR_RE.match(text):
+                problems.append(f"cell {i}: object repr as the cell's output: {text[:80]!r}")
             elif out.output_type != "stream" and _PATH_RE.match(text):
                 problems.append(f"cell {i}: output is a bare path: {text[:80]!r}")
             elif out.output_type == "stream" and _PATH_RE.match(text) and "\n" not in text:
@@ -92,6 +106,59 @@ def output_problems(nb: nbformat.NotebookNode, figures: list[str],
                        not in shown]
             msg += f"; not shown: {', '.join(missing) or '(cannot tell)'}"
         problems.append(msg)
+    return problems
+
+
+def _statuses(cell) -> list[str]:
+    return [m for out in cell.get("outputs", [])
+            for m in _STATUS_RE.findall(_text(out, "text/html"))]
+
+
+def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
+    """What an executed notebook's exercises do wrong, one line per problem (empty when fine).
+
+    An exercise is a markdown cell starting ``**Exercise N.**`` followed (before the next
+    markdown cell that starts a section or an exercise) by a code cell tagged ``exercise``, a
+    stub with ``# your code here`` whose checker said ``not attempted``, then a code cell tagged
+    ``solution`` with its source hidden in JupyterLab whose checker said ``correct``
+    (:func:`vehicle_observers.results.teaching.check`). At least ``minimum`` exercises; no
+    solution in plain sight (a markdown cell starting ``**Solution``)."""
+    problems = []
+    cells = nb.cells
+    starts = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
+              and c.source.lstrip().startswith("**Exercise")]
+    if len(starts) < minimum:
+        problems.append(f"{len(starts)} exercises (want at least {minimum} '**Exercise N.**' cells)")
+    shown = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
+             and c.source.lstrip().startswith("**Solution")]
+    if shown:
+        problems.append(f"cells {shown}: a solution in plain sight (markdown '**Solution')")
+    for n, i in enumerate(starts, 1):
+        label = cells[i].source.lstrip()[:20].split(".**")[0].strip("* ")
+        if label != f"Exercise {n}":
+            problems.append(f"cell {i}: '{label}' is exercise number {n} in order")
+        block = []
+        for c in cells[i + 1:]:
+            if c.cell_type == "markdown" and (c.source.lstrip().startswith(("#", "**Exercise"))):
+                break
+            block.append(c)
+        stubs = [c for c in block if c.cell_type == "code" and "exercise" in c.metadata.get("tags", [])]
+        sols = [c for c in block if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])]
+        if len(stubs) != 1 or len(sols) != 1:
+            problems.append(f"cell {i} ({label}): {len(stubs)} 'exercise' and {len(sols)} 'solution' "
+                            f"code cells after it (want one of each)")
+            continue
+        stub, sol = stubs[0], sols[0]
+        if "# your code here" not in stub.source:
+            problems.append(f"cell {i} ({label}): the stub has no '# your code here'")
+        if _statuses(stub) != ["not attempted"]:
+            problems.append(f"cell {i} ({label}): the stub's checker said {_statuses(stub)} "
+                            f"(want ['not attempted'])")
+        if not sol.metadata.get("jupyter", {}).get("source_hidden"):
+            problems.append(f"cell {i} ({label}): the solution's source is not hidden")
+        if _statuses(sol) != ["correct"]:
+            problems.append(f"cell {i} ({label}): the solution's checker said {_statuses(sol)} "
+                            f"(want ['correct'])")
     return problems
 
 
@@ -171,6 +238,67 @@ def test_checker_rejects_a_printed_path_and_an_error_but_not_prose():
                                        "cell 1: error output ValueError: bad"]
 
 
+def _exercise_nb(stub_status="not attempted", sol_status="correct", hidden=True,
+                 solution_md=False) -> nbformat.NotebookNode:
+    def status(st):
+        return [new_output("display_data", data={"text/html": f'<div data-status="{st}">x</div>',
+                                                  "text/plain": "Exercise"})]
+    nb = new_notebook()
+    for n in (1, 2, 3):
+        nb.cells.append(nbformat.v4.new_markdown_cell(f"**Exercise {n}.** Do it."))
+        stub = new_code_cell("def f():\n    ...  # your code here\nex.check(f)",
+                             metadata={"tags": ["exercise"]})
+        stub.outputs = status(stub_status)
+        sol = new_code_cell("def f():\n    return 1\nex.check(f)",
+                            metadata={"tags": ["solution"], "jupyter": {"source_hidden": hidden}})
+        sol.outputs = status(sol_status)
+        nb.cells += [stub, sol]
+        if solution_md:
+            nb.cells.append(nbformat.v4.new_markdown_cell(f"**Solution {n}.** It is 1."))
+    return nb
+
+
+def test_exercise_checker_accepts_stub_then_hidden_solution():
+    assert exercise_problems(_exercise_nb()) == []
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"stub_status": "correct"}, "stub's checker said ['correct']"),
+    ({"sol_status": "not yet"}, "solution's checker said ['not yet']"),
+    ({"hidden": False}, "source is not hidden"),
+    ({"solution_md": True}, "in plain sight"),
+])
+def test_exercise_checker_rejects(kw, words):
+    problems = exercise_problems(_exercise_nb(**kw))
+    assert problems and any(words in p for p in problems), problems
+
+
+def test_exercise_checker_wants_three_and_in_order():
+    nb = _exercise_nb()
+    assert exercise_problems(nb, minimum=4)[0].startswith("3 exercises")
+    nb.cells[3].source = "**Exercise 5.** Wrong number."
+    assert any("'Exercise 5' is exercise number 2" in p for p in exercise_problems(nb))
+
+
+@pytest.mark.parametrize("text, kind", [
+    ("Judgement(verdict='reproduced', value=0.031000000000000028)", "object repr"),
+    ("<vehicle_observers.design.lmi.Certificate object at 0x7f00>", "object repr"),
+    ("array([[1., 2.],\n       [3., 4.]])", "object repr"),
+    ("{'gamma': 0.3, 'P': [[1, 0], [0, 1]]}", "object repr"),
+])
+def test_checker_rejects_object_reprs(text, kind):
+    nb = _executed([[new_output("execute_result", data={"text/plain": text}, execution_count=1)]])
+    (problem,) = output_problems(nb, [])
+    assert kind in problem
+
+
+def test_checker_rejects_warnings_on_stderr():
+    nb = _executed([[new_output("stream", name="stderr",
+                                text="UserWarning: Solution may be inaccurate.\n")]])
+    (problem,) = output_problems(nb, [])
+    assert "stderr" in problem
+
+
 # ---------------------------------------------------------------- the notebooks ---------------
 
 @pytest.mark.notebook
@@ -181,6 +309,16 @@ def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
     figures = saved_figures(m["_dir"] / "metrics.json")
     problems = output_problems(nb, figures, m["_dir"])
     assert not problems, f"{name} (quick): " + "; ".join(problems)
+
+
+@pytest.mark.notebook
+@pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
+def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
+    """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
+    m = run_notebook(name)
+    nb = nbformat.read(str(m["_executed"]), as_version=4)
+    problems = exercise_problems(nb)
+    assert not problems, f"{name}: " + "; ".join(problems)
 
 
 @pytest.mark.parametrize("name", [_param(n, "full") for n in NOTEBOOKS])

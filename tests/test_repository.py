@@ -137,3 +137,30 @@ def test_pipeline_reports_failing_notebook_and_cell(tmp_path, monkeypatch, capsy
     assert "99_broken.ipynb" in err and "ValueError" in err and "boom at purpose" in err
     assert re.search(r"cell \d", err)
     assert (tmp_path / "b" / "99_broken.ipynb").exists()  # executed copy kept
+
+
+#: what the opening cells of every notebook tell a student (the course's learning path)
+LESSON_HEAD = ("what you will learn", "prerequisites", "reading time", "run time")
+
+
+@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_opens_as_a_lesson_and_keeps_the_bookkeeping_last(nb):
+    """The first markdown cells say what a student learns, what to know before, how long it
+    takes to read and to run, and map the paper's symbols to the course notation; the claims
+    bookkeeping (``rep.claim``/``Rule``) sits in one final 'Reproduction' section, after the
+    lesson (a start page without claims has none)."""
+    doc = nbformat.read(str(nb), as_version=4)
+    md = [c.source for c in doc.cells if c.cell_type == "markdown"]
+    head = " ".join(md[:3]).lower()
+    missing = [p for p in LESSON_HEAD if p not in head]
+    assert not missing, f"{nb.name}: the opening cells do not say: {', '.join(missing)}"
+    assert "symbol" in head or "notation" in head, f"{nb.name}: no symbol / notation table at the top"
+    claims = [i for i, c in enumerate(doc.cells) if c.cell_type == "code"
+              and re.search(r"\brep\.claim\(|\bRule[.(]", c.source)]
+    if not claims:
+        return
+    heads = [i for i, c in enumerate(doc.cells) if c.cell_type == "markdown"
+             and re.match(r"#{1,3} .*Reproduction", c.source.lstrip())]
+    assert len(heads) == 1, f"{nb.name}: {len(heads)} 'Reproduction' section headings (want one)"
+    early = [i for i in claims if i < heads[0]]
+    assert not early, f"{nb.name}: claim bookkeeping in cells {early}, before the Reproduction section"

@@ -216,21 +216,31 @@ def lab_problems(name: str, errors: list[str], n_images: int, figures: list[str]
     return problems
 
 
-def teaching_problems(name: str, cells: list[dict]) -> list[str]:
-    """A teaching notebook has one cell tagged ``knobs`` and at least two markdown cells starting
-    with ``**Exercise`` and as many starting with ``**Solution``. ``cells``: dicts with
-    ``cell_type``, ``source`` and ``tags``."""
+#: notebooks whose lesson has a live figure (a slider redrawing it): the browser test moves it
+SLIDER_NOTEBOOKS = ("03_interval_observer", "04_bicycle_dmvt", "05_sliding_mode_observers")
+
+
+def teaching_problems(name: str, cells: list[dict], slider: dict | None = None) -> list[str]:
+    """A teaching notebook has one cell tagged ``knobs``, at least one ``**Try this.**`` prompt
+    and one ``animation`` cell; a notebook of :data:`SLIDER_NOTEBOOKS` has a live figure whose
+    image changes when its slider moves (``slider``: :func:`drive_slider`'s answer).
+    ``cells``: dicts with ``cell_type``, ``source`` and ``tags``. (The exercises are checked
+    by ``exercise_problems`` of ``tests/test_executed_notebooks.py``.)"""
     knobs = sum("knobs" in c["tags"] for c in cells)
     md = [c["source"].lstrip() for c in cells if c["cell_type"] == "markdown"]
-    ex = sum(s.startswith("**Exercise") for s in md)
-    sol = sum(s.startswith("**Solution") for s in md)
     problems = []
     if knobs != 1:
         problems.append(f"{name}: {knobs} cells tagged 'knobs' (want exactly 1)")
-    if ex < 2:
-        problems.append(f"{name}: {ex} exercises (want at least 2 markdown cells '**Exercise N.**')")
-    if sol < ex:
-        problems.append(f"{name}: {sol} solutions for {ex} exercises ('**Solution N.**')")
+    if not any("**Try this.**" in s for s in md):
+        problems.append(f"{name}: no '**Try this.**' prompt under a figure")
+    if not any("animation" in c["tags"] for c in cells) and not name.startswith("00"):
+        problems.append(f"{name}: no cell tagged 'animation' (an HTML5 animation of the observer)")
+    if name in SLIDER_NOTEBOOKS or slider is not None:
+        if slider is None:
+            problems.append(f"{name}: no live figure (slider above a redrawn image) in the page")
+        elif not slider["changed"]:
+            problems.append(f"{name}: moving the slider to {slider['value']} did not change the "
+                            f"figure")
     return problems
 
 
@@ -316,8 +326,61 @@ _LAB_STATE = """() => { const w = window.jupyterapp.shell.currentWidget;
                        .map(t => t.slice(0, 160)),
     cells: w.content.widgets.map(c => ({cell_type: c.model.type,
       source: c.model.sharedModel.getSource(), tags: c.model.getMetadata('tags') || [],
+      hidden: !!((c.model.getMetadata('jupyter') || {}).source_hidden),
       rendered: c.model.type !== 'markdown' || c.rendered,
       outputs: c.model.type === 'code' ? c.model.outputs.toJSON() : []}))}; }"""
+
+
+#: the image of the first live figure (an ipywidgets slider above an Output widget) in the page
+_LIVE_IMAGE = """() => { const s = document.querySelector('.jp-OutputArea-output .widget-slider');
+  if (!s) return null;
+  const box = s.closest('.widget-vbox');
+  const img = box && box.querySelector('.widget-output img');
+  return img ? img.src : ''; }"""
+
+
+def drive_slider(page, timeout_ms: int = 30_000) -> dict | None:
+    """Move the first slider of the page one step (keyboard, as a user would) and wait for the
+    image of its live figure to change. ``None`` when the page has no slider, else
+    ``{"changed": bool, "value": readout after the move, "before"/"after": image lengths}``."""
+    before = page.evaluate(_LIVE_IMAGE)
+    if before is None:
+        return None
+    handle = page.locator(".jp-OutputArea-output .widget-slider .noUi-handle").first
+    handle.scroll_into_view_if_needed()
+    handle.focus()
+    page.keyboard.press("ArrowRight")
+    changed = True
+    try:
+        page.wait_for_function(f"() => {{ const s = ({_LIVE_IMAGE})(); "
+                               f"return s && s !== {json.dumps(before)}; }}", polling=500,
+                               timeout=timeout_ms)
+    except Exception:  # playwright's TimeoutError: the figure did not change
+        changed = False
+    after = page.evaluate(_LIVE_IMAGE) or ""
+    value = page.locator(".jp-OutputArea-output .widget-slider .widget-readout").first.inner_text()
+    return {"changed": changed and bool(before), "value": value, "before": len(before),
+            "after": len(after)}
+
+
+def cells_notebook(cells: list[dict]):
+    """The cells read from the page as an nbformat notebook (tags, hidden source, outputs), for
+    the output and exercise checkers of ``tests/test_executed_notebooks.py``."""
+    import nbformat
+    from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
+
+    nb = new_notebook()
+    for c in cells:
+        meta = {"tags": list(c["tags"])}
+        if c.get("hidden"):
+            meta["jupyter"] = {"source_hidden": True}
+        if c["cell_type"] == "code":
+            cell = new_code_cell(c["source"], metadata=meta)
+            cell.outputs = [nbformat.from_dict(o) for o in c["outputs"]]
+        else:
+            cell = new_markdown_cell(c["source"], metadata=meta)
+        nb.cells.append(cell)
+    return nb
 
 
 @dataclass
@@ -331,6 +394,8 @@ class LabRun:
     figures: list | None
     screenshot: Path
     seconds: float
+    #: what moving the first slider did (:func:`drive_slider`), None without a slider
+    slider: dict | None = None
 
     @property
     def errors(self) -> list[str]:
@@ -365,8 +430,12 @@ def run_in_lab(context, lab: Lab, name: str, figures_dir: Path, shots: Path,
         state = page.evaluate(_LAB_STATE)
         shots.mkdir(parents=True, exist_ok=True)
         page.screenshot(path=str(shots / f"{name}.png"))
+        slider = drive_slider(page)
+        if slider is not None:
+            page.screenshot(path=str(shots / f"{name}-slider.png"))
         lab.api(f"sessions/{state['session']}", "DELETE")
     finally:
         page.close()
     return LabRun(name, state["kernel"], state["images"], state["cells"], state["widget_errors"],
-                  saved_figures(figures_dir, name), shots / f"{name}.png", time.monotonic() - t0)
+                  saved_figures(figures_dir, name), shots / f"{name}.png", time.monotonic() - t0,
+                  slider)

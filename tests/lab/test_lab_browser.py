@@ -3,8 +3,11 @@ Chromium, every notebook (quick parameters injected) run with Run > Run All Cell
 
 Asserted per notebook: the project's kernel ran it, no cell has an error output, at least as many
 rendered images as figures saved (metrics.json "files"), no widget error placeholder, and the
-teaching cells are there (one cell tagged ``knobs``, at least two ``**Exercise`` markdown cells,
-each with a ``**Solution``). A screenshot per notebook goes to ``build/screenshots/``.
+teaching is there: one cell tagged ``knobs``, a ``**Try this.**`` prompt, an animation, real
+exercises (stub, checker, hidden solution), no warning or object repr in the page, and in the
+notebooks with a live figure, moving its slider (keyboard, as a user) changes the image. A
+screenshot per notebook goes to ``build/screenshots/`` (and ``<name>-slider.png`` after the
+move).
 
 A tiny synthetic notebook that saves a figure without showing it must fail the same check (and
 its twin that shows it must pass): the test can fail.
@@ -21,6 +24,7 @@ import pytest
 from labkit import (
     KERNEL,
     ROOT,
+    cells_notebook,
     chromium_path,
     require_browser,
     run_in_lab,
@@ -29,6 +33,7 @@ from labkit import (
     teaching_problems,
 )
 from nbformat.v4 import new_code_cell, new_notebook
+from test_executed_notebooks import exercise_problems, output_problems
 
 require_browser("JupyterLab browser test")
 
@@ -38,11 +43,6 @@ NOTEBOOKS = [p.stem for p in pipeline.notebooks()]
 
 pytestmark = [pytest.mark.xdist_group("lab"), pytest.mark.slow]
 SHOTS = ROOT / "build" / "screenshots"
-
-#: notebooks that lack the teaching cells today: {notebook: reason}; strict, so an entry must go
-#: as soon as its notebook has them
-NO_TEACHING_CELLS: dict[str, str] = {}
-
 
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
@@ -110,11 +110,41 @@ def test_notebook_runs_in_lab_and_shows_its_figures(name, lab_run):
     assert not problems, "; ".join(problems) + f" (screenshot: {run.screenshot})"
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=r))
-                                  if (r := NO_TEACHING_CELLS.get(n)) else n for n in NOTEBOOKS])
-def test_notebook_has_knobs_and_exercises_in_lab(name, lab_run):
+@pytest.mark.parametrize("name", NOTEBOOKS)
+def test_notebook_teaches_in_lab(name, lab_run):
+    """Knobs, a live figure that redraws when its slider moves, an animation, real exercises,
+    and nothing a student should not see (warnings, object reprs), all in the page."""
     run = lab_run(name)
     unrendered = [i for i, c in enumerate(run.cells) if not c["rendered"]]
     assert not unrendered, f"{name}: markdown cells {unrendered} not rendered in the page"
-    problems = teaching_problems(name, run.cells)
-    assert not problems, "; ".join(problems)
+    nb = cells_notebook(run.cells)
+    problems = (teaching_problems(name, run.cells, run.slider) + exercise_problems(nb)
+                + output_problems(nb, []))
+    assert not problems, "; ".join(problems) + f" (screenshots: {run.screenshot.parent})"
+
+
+def _live_notebook(path, redraws: bool):
+    """A live figure whose drawing uses the slider's value (``redraws``) or ignores it."""
+    nb = new_notebook()
+    nb.metadata["kernelspec"] = {"name": KERNEL, "display_name": "Python (vehicle-observers)",
+                                 "language": "python"}
+    slope = "k" if redraws else "1.0"
+    nb.cells = [new_code_cell("import matplotlib.pyplot as plt\n"
+                              "from vehicle_observers.results import teaching as T\n"
+                              "def draw(k):\n    fig, ax = plt.subplots(figsize=(3, 2))\n"
+                              f"    ax.plot([0, 1], [0, {slope}])\n    ax.set_ylim(0, 3)\n"
+                              "    return fig\n"
+                              "T.live_figure(draw, k=T.slider(1.0, 0.0, 3.0, 0.5, 'slope'))")]
+    nbformat.write(nb, str(path))
+
+
+@pytest.mark.parametrize("redraws", [True, False], ids=["redraws", "ignores"])
+def test_slider_check_fails_when_the_figure_ignores_the_slider(lab, browser, redraws):
+    server, _ = lab
+    name = f"zz_live_{'redraws' if redraws else 'ignores'}"
+    _live_notebook(server.root_dir / f"{name}.ipynb", redraws)
+    run = run_in_lab(browser, server, name, server.root_dir / "figures", SHOTS)
+    assert run.slider is not None and run.slider["value"] == "1.50"
+    assert run.slider["changed"] is redraws
+    problems = teaching_problems(name, run.cells, run.slider)
+    assert any("did not change the figure" in p for p in problems) is (not redraws)

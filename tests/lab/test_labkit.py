@@ -9,22 +9,31 @@ def _cells(*spec):
 
 def test_teaching_cells_found():
     cells = _cells(("code", "alpha = 0.5  # decay rate", ["knobs"]),
-                   ("markdown", "**Exercise 1.** Halve alpha.", []),
-                   ("markdown", "**Solution 1.** The bound doubles.", []),
-                   ("markdown", "  **Exercise 2.** Double R.", []),
-                   ("markdown", "**Solution 2.** ...", []))
+                   ("markdown", "**Try this.** Halve alpha: the bound doubles.", []),
+                   ("code", "T.animation(fig, update, 30)", ["animation"]))
     assert teaching_problems("02", cells) == []
+    moved = {"changed": True, "value": "0.12", "before": 10, "after": 12}
+    assert teaching_problems("03_interval_observer", cells, moved) == []
 
 
 def test_missing_teaching_cells_reported():
-    cells = _cells(("code", "alpha = 0.5", []), ("markdown", "Exercise 1: no bold", []),
-                   ("markdown", "**Exercise 2.** Double R.", []))
+    cells = _cells(("code", "alpha = 0.5", []), ("markdown", "Try this: not bold", []))
     assert teaching_problems("02", cells) == [
         "02: 0 cells tagged 'knobs' (want exactly 1)",
-        "02: 1 exercises (want at least 2 markdown cells '**Exercise N.**')",
-        "02: 0 solutions for 1 exercises ('**Solution N.**')"]
+        "02: no '**Try this.**' prompt under a figure",
+        "02: no cell tagged 'animation' (an HTML5 animation of the observer)"]
     two_knobs = _cells(("code", "a = 1", ["knobs"]), ("code", "b = 1", ["knobs", "x"]))
     assert teaching_problems("03", two_knobs)[0] == "03: 2 cells tagged 'knobs' (want exactly 1)"
+
+
+def test_a_slider_notebook_needs_a_live_figure_that_changes():
+    cells = _cells(("code", "a = 1", ["knobs"]), ("markdown", "**Try this.** x", []),
+                   ("code", "anim", ["animation"]))
+    assert teaching_problems("04_bicycle_dmvt", cells, None) == [
+        "04_bicycle_dmvt: no live figure (slider above a redrawn image) in the page"]
+    stuck = {"changed": False, "value": "2.00", "before": 10, "after": 10}
+    assert teaching_problems("05_sliding_mode_observers", cells, stuck) == [
+        "05_sliding_mode_observers: moving the slider to 2.00 did not change the figure"]
 
 
 def test_lab_problems():

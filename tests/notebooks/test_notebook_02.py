@@ -1,7 +1,8 @@
 """Notebook 02 (Yacine 2015: premise estimation, curvature, TS observer, Theorem 1) in quick
 mode (first 40 s of the emulated lap, top speed 16.5 m/s): key metrics against theory, the
-paper's claims and the exercises' worked solutions."""
+paper's claims and the teaching cells (exercises, widget, animation)."""
 
+import nbformat
 import numpy as np
 import pytest
 
@@ -21,7 +22,8 @@ def test_files_and_claims(m):
     for f in ("scenario", "hosmd_scaling", "fig2_lateral_estimates", "fig3_curvature", "bound34"):
         assert (m["_dir"] / f"{f}.png").exists()
     items = {c["item"] for c in m["_doc"]["claims"]}
-    assert {"Fig. 2", "Fig. 3", "Theorem 1 (33)", "Bound (34), paper's alpha"} <= items
+    assert {"Fig. 2", "Fig. 3", "Theorem 1 (33)", "Bound (34), paper's alpha",
+            "(33) alone over alpha (section 6)"} <= items
     assert all(c["rule"] != "(hand-written verdict)" for c in m["_doc"]["claims"])
 
 
@@ -58,9 +60,9 @@ def test_default_design_obeys_its_constraints(m):
 
 
 def test_alpha_feasibility_is_limited_by_the_added_bound_not_by_33(m):
-    """(33) alone is feasible for alpha = 0.001, 1, 10; the default design (with the added
-    P~ <= 1e3 I) fails from alpha = 1, and so does (33) + P~ bound alone; the disk alone
-    stays feasible. cond(P) of (33) alone grows with alpha."""
+    """(33) alone returns sign-feasible solutions for alpha = 0.001, 1, 10; the default design
+    (with the added P~ <= 1e3 I) fails from alpha = 1, and so does (33) + P~ bound alone; the
+    disk alone stays feasible. cond(P) of (33) alone grows with alpha."""
     s = m["lmi_study"]
     rows = list(zip(s["alpha"], s["config"], s["feasible"], s["P_condition"], s["lmi"]))
     alone = [r for r in rows if r[1] == "(33) alone"]
@@ -71,14 +73,41 @@ def test_alpha_feasibility_is_limited_by_the_added_bound_not_by_33(m):
         assert feas == {0.001: True, 1.0: False, 10.0: False}
     assert all(r[2] for r in rows if r[1] == "(33) + disk |lambda| < 600")
     assert all(r[4].startswith("Xi[") for r in rows if not r[2])
-    assert m["lmi_alone_feasible_all"] is True and m["lmi_default_feasible_alpha1"] is False
-    # sign-feasible is not certified: below a relative margin of 1e-9 or above cond(P) = 1e8
-    # the certificate is inconclusive (design.lmi.Certificate.status); (33) alone at alpha = 10
+    assert m["lmi_default_feasible_alpha1"] is False
+
+
+def test_inconclusive_lmi_solutions_never_count_as_feasible(m):
+    """Sign-feasible is not certified: below a relative margin of 1e-9 or above cond(P) = 1e8
+    the certificate is inconclusive (design.lmi.Certificate.status). (33) alone at alpha = 10
+    (cond(P) > 1e8) is inconclusive; at alpha = 1 the relative margin (~2e-9) is only about twice
+    the threshold, so the counts follow the statuses rather than fixed numbers. The Theorem 1
+    claim is graded on (33) alone at the paper's alpha (certified, margin ~6e-8), the sweep is a
+    diagnostic whose verdict is partly."""
+    s = m["lmi_study"]
     for feas, cond, rel, status in zip(s["feasible"], s["P_condition"], s["xi_min_relative"],
                                        s["status"]):
         if feas:
             assert status == ("certified" if rel >= 1e-9 and cond <= 1e8 else "inconclusive")
-    assert m["lmi_alone_certified_all"] is False and m["lmi_status"] == "certified"
+    alone = [(a, st) for a, c, st in zip(s["alpha"], s["config"], s["status"]) if c == "(33) alone"]
+    assert m["lmi_alone_n"] == len(alone) == 3
+    st = dict(alone)
+    assert st[0.001] == "certified" and st[10.0] == "inconclusive"
+    assert m["lmi_alone_certified"] == sum(v == "certified" for v in st.values())
+    assert m["lmi_alone_inconclusive"] == sum(v == "inconclusive" for v in st.values())
+    assert m["lmi_alone_certified"] + m["lmi_alone_inconclusive"] == 3     # all sign-feasible
+    assert m["lmi_alone_max_certified_alpha"] == max(a for a, v in st.items() if v == "certified")
+    assert m["lmi_alone_certified_all"] is False
+    assert m["lmi_paper_status"] == "certified" and m["lmi_status"] == "certified"
+    assert m["lmi_paper_xi_min_relative"] >= 1e-9 and m["lmi_paper_P_condition"] <= 1e8
+    assert _claim(m, "Theorem 1 (33)")["verdict"] == "reproduced"
+    sweep = _claim(m, "(33) alone over alpha (section 6)")
+    assert sweep["verdict"] == "partly" and sweep["kind"] == "diagnostic"
+
+
+def test_readable_loop_equals_compiled_kernel(m):
+    """The notebook's Python loop over observer_step (31) reproduces the compiled run: a few
+    ulps per step on states of order 1-1000, contracting error dynamics (no growth)."""
+    assert m["readable_loop_max_diff"] < 1e-9
 
 
 def test_noise_free_levels(m):
@@ -91,7 +120,7 @@ def test_noise_free_levels(m):
     assert ns["rmse_Ff"][k] < 5 and ns["rmse_Fr"][k] < 5
 
 
-def test_noisy_run_and_observer_refines_premise(m):
+def test_noisy_run_and_observer_refines_premise_on_its_own_model(m):
     """Nominal noise, matched truth: the observer (31) re-estimates vy better than the
     algebraic premise (26) by at least a factor 2; forces within 1.5 % / 5 % of the ~3 kN
     peaks (RMSE); curvature RMSE below 5e-4 1/m."""
@@ -111,6 +140,24 @@ def test_model_mismatch(m):
     assert m["mm_rmse_vy"] > m["mm_rmse_vy_premise"]
     assert m["mm_rmse_Ff"] > m["rmse_Ff"] and m["mm_rmse_Fr"] > m["rmse_Fr"]
     assert m["matched_rmse_vy"] == pytest.approx(m["rmse_vy"], rel=1e-3)
+
+
+def test_observer_vs_premise_claim_is_graded_on_the_mismatched_truth(m):
+    """The Sec. IV claim (observer better than its premise) is graded on the car that is not the
+    model (the paper's real car): it differs (ratio > 1); the matched run is a diagnostic
+    (ratio < 1). The ratio grows with the mismatch fraction (0, 0.1, 0.25, 0.5, 1), from ~0.18
+    to ~5, roughly linearly (the observer's bias is proportional to the model error, the
+    premise's kinematic error does not move), and crosses 1 between 0.1 and 0.25."""
+    c = _claim(m, "Sec. IV: observer (31) re-estimates v_y better than the premise (26)")
+    assert c["kind"] == "paper" and c["verdict"] == "differs"
+    assert c["value"] == pytest.approx(m["mm_rmse_vy"] / m["mm_rmse_vy_premise"], rel=1e-3)
+    assert c["value"] > 3
+    d = _claim(m, "Observer (31) vs premise (26), truth = the observer's own model")
+    assert d["kind"] == "diagnostic" and d["verdict"] == "reproduced" and d["value"] < 0.5
+    r = m["mm_sweep_ratio"]
+    assert np.all(np.diff(r) > 0) and r[0] < 0.5 and r[-1] > 3
+    assert r[0] == pytest.approx(m["rmse_vy"] / m["rmse_vy_premise"], rel=1e-3)
+    assert 0.1 < m["mm_break_even_fraction"] < 0.25
 
 
 def test_noise_scaling(m):
@@ -133,8 +180,10 @@ def test_bound_34_at_paper_alpha_holds_but_proves_little(m):
     assert m["bound_max_ratio"] < 0.1 and m["bound_max_ratio_iss"] < 0.1
     assert m["bound_e0"] > 2.5 and m["bound_err_after_5s"] < 1e-3
     assert m["bound_t_informative"] > 3600
+    # the open-loop model (L = 0) stays below the bound as well: it cannot tell a gain from none
+    assert m["bound_max_ratio_open_loop"] < 0.1
     c = _claim(m, "Bound (34), paper's alpha")
-    assert c["proves_little"] is True and c["value"] < 0.1
+    assert c["proves_little"] is True and c["value"] < 0.1 and c["verdict"] == "reproduced"
 
 
 def test_bound_decay_term_with_larger_alpha(m):
@@ -146,6 +195,13 @@ def test_bound_decay_term_with_larger_alpha(m):
     assert 0.1 <= b["max_ratio"][k1] <= 1 and b["t_informative"][k1] < 30
     assert b["max_ratio"][k5] > 1
     assert all(r < 1 for r in b["max_ratio_iss"])
+    # the alpha = 5 design is inconclusive (cond(P) > 1e8): it does not count in the verdict
+    assert b["status"][k5] == "inconclusive" and b["status"][k1] == "certified"
+    cert = [r for r, st in zip(b["max_ratio"], b["status"]) if st == "certified"]
+    assert m["bound_study_worst_ratio_certified"] == pytest.approx(max(cert), rel=1e-3)
+    assert m["bound_study_worst_ratio"] == pytest.approx(max(b["max_ratio"]), rel=1e-3)
+    c = _claim(m, "Bound (34)/(45), larger alpha")
+    assert c["value"] == pytest.approx(max(cert), rel=1e-3)
 
 
 def test_alpha_study_observer(m):
@@ -153,12 +209,31 @@ def test_alpha_study_observer(m):
     assert all(a["feasible"]) and all(r < 1e-3 for r in a["rmse_vy"])
 
 
-def test_exercise_solutions(m):
-    """Ex. 1: the 25 Hz camera degrades the premise, the observer still improves on it.
-    Ex. 2: the alpha = 1 design needs cond(P) beyond the 1e5 the default bound allows and
-    decays faster than alpha/2. Ex. 3: t_informative from the bound's end value equals the
-    library's value computed from P, c and delta (two routes)."""
-    assert m["ex1_premise_rmse_ratio_25Hz"] > 1.5 and m["ex1_observer_over_premise_25Hz"] < 1
-    assert m["ex2_P_condition"] > 1e5 and m["ex2_max_pole_real"] < -0.5
-    t_lib = m["bound_study"]["t_informative"][m["bound_study"]["alpha"].index(0.001)]
-    assert m["ex3_t_informative_s"] == pytest.approx(t_lib, rel=1e-3)
+def _cells(m, tag):
+    nb = nbformat.read(m["_executed"], as_version=4)
+    return [c for c in nb.cells if tag in c.metadata.get("tags", [])]
+
+
+def _html(cell):
+    return "".join(o.get("data", {}).get("text/html", "") for o in cell.get("outputs", []))
+
+
+def test_exercises_stubs_not_attempted_and_solutions_correct(m):
+    """Four exercises (02.1-02.4), each a stub answering 'not attempted' under Run All and a
+    hidden solution answering 'correct' (the checkers compute their answers independently:
+    tests/papers/test_yacine2015_exercises.py)."""
+    stubs, sols = _cells(m, "exercise"), _cells(m, "solution")
+    assert len(stubs) == len(sols) == 4
+    for k, (st, so) in enumerate(zip(stubs, sols, strict=True), start=1):
+        assert f"Exercise 02.{k}" in _html(st) and 'data-status="not attempted"' in _html(st)
+        assert f"Exercise 02.{k}" in _html(so) and 'data-status="correct"' in _html(so)
+        assert so.metadata["jupyter"]["source_hidden"] is True
+        assert f"ex.check_{k}(" in st.source and f"ex.check_{k}(" in so.source
+
+
+def test_widget_and_animation_cells(m):
+    """One live figure (the differentiator against L and noise) and one animation (the
+    observer's error converging under the bound), both executed without error."""
+    (w,), (a,) = _cells(m, "widget"), _cells(m, "animation")
+    assert "live_figure" in w.source and "application/vnd.jupyter.widget-view+json" in w.outputs[0].data
+    assert "teaching.animation" in a.source and "<script" in _html(a)

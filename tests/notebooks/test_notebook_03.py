@@ -41,13 +41,26 @@ def test_design_certified(m):
 
 
 def test_printed_solution_certificate(m):
-    # (17)-(19) certified with the printed P, W = P L; Metzler part of (20) holds; the
-    # printed mode-1 L2 = 4383 needs epsilon ~ 4393 (chosen polarity) / 5004 (other) 1/s
+    # (17)-(19) certified with the printed P, W = P L; Metzler part of (20) holds; epsilon is a
+    # given scalar of Theorem 2, so the printed solution is one (reproduced). The printed
+    # mode-1 L2 = 4383 needs epsilon ~ 4393 (chosen polarity) / 5004 (other) 1/s: above the
+    # repository's 1/T_s cap, a diagnostic row of its own
     assert m["printed_lmi_margin"] >= 0.99e-2 and m["printed_metzler_margin_min"] > 0
+    assert m["printed_lmi_status"] == "certified" and m["printed_lmi_relative_margin"] > 1e-9
     assert m["printed_min_epsilon"][0] == pytest.approx(4393, abs=1)
     assert m["printed_min_epsilon_other_polarity"][0] == pytest.approx(5004, abs=1)
-    c = _verdicts(m)["Theorem 2: the printed P, L solve (17)-(20)"]
-    assert c["value"] == m["printed_min_epsilon"][0] and c["verdict"] == "partly"
+    v = _verdicts(m)
+    c = v["Theorem 2: the printed P, L solve (17)-(20)"]
+    assert c["value"] == m["printed_metzler_margin_min"] and c["verdict"] == "reproduced"
+    assert c["kind"] == "paper"
+    c = v["printed gains within this repository's epsilon <= 1/T_s"]
+    assert c["kind"] == "diagnostic" and c["verdict"] == "differs"
+    assert c["value"] == max(m["printed_min_epsilon"])
+    # forensics: the hand value of the printed L_1^1's epsilon is the certificate's mode-1
+    # value under the polarity with 1/v_min at vertex 1 (the other one)
+    assert m["printed_epsilon_by_hand"] == pytest.approx(
+        m["printed_min_epsilon_other_polarity"][0], rel=1e-3)
+    assert m["substeps_printed_epsilon"] == math.ceil(IF.Ts * m["epsilon_printed"][0] - 1e-9)
 
 
 def test_gain_claims_are_computed(m):
@@ -55,9 +68,13 @@ def test_gain_claims_are_computed(m):
     # one designed L1 > 0 (mode 1, vertex 2, allowed by A^-_12 > 0): 23 of 24 signs
     assert m["L_sign_agreement"] == pytest.approx(23 / 24, abs=1e-4)
     assert v["Theorem 2 solution: signs of L"]["verdict"] == "partly"
-    # magnitudes: within a factor 10 on average, not within 2; the chosen polarity is closer
-    assert 0.301 < m["log_ratio_chosen"] <= 1
-    assert v["Theorem 2 solution: magnitudes of L"]["verdict"] == "partly"
+    # magnitudes: half the designed entries sit on a bound of (20) (L1 on the Metzler bound,
+    # L2 on the epsilon bound at vertices 1-2 of every mode): not comparable, the mean over
+    # the free entries reported
+    assert m["L2_at_epsilon_cap_share"] == 0.5 and m["L1_at_metzler_limit_share"] == 0.5
+    c = v["Theorem 2 solution: magnitudes of L"]
+    assert c["verdict"] == "not comparable" and c["value"] == m["L_log_ratio_free"]
+    assert "epsilon bound" in c["rule"]
     assert m["log_ratio_chosen"] < m["log_ratio_other"]
     assert m["gamma_single_objective"] <= m["gamma_per_mode_objective_max"] * (1 + 1e-3)
 
@@ -74,12 +91,19 @@ def test_enclosure_guaranteed_on_lpv_truth(m):
 
 def test_convergence_time(m):
     # v_y settles at the open-loop rate (slower at higher speed), r within a few ms
-    t = m["conv_time"]
+    t, t0 = m["conv_time"], m["conv_time_open_loop"]
     assert t[0][0] < t[1][0] < t[2][0] <= 2.0
     assert max(r[1] for r in t) < 0.05
     assert m["conv_time_max"] == max(max(r) for r in t)
     assert abs(m["conv_time_max"] - m["conv_time_single_max"]) < 0.05 * m["conv_time_max"]
-    assert _verdicts(m)["conclusion: short convergence time"]["verdict"] == "reproduced"
+    # the open-loop model forgets the initial r error in tenths of a second, not ms; its v_y
+    # error no slower than the observer's v_y width (L cannot act on the v_y row)
+    assert min(r[1] for r in t0) > 0.1
+    assert m["conv_time_open_loop_max"] == max(max(r) for r in t0)
+    c = _verdicts(m)["conclusion: short convergence time"]
+    assert c["verdict"] == ("reproduced" if m["conv_time_max"] < m["conv_time_open_loop_max"]
+                            else "partly")
+    assert "conv_time_open_loop_max" in c["rule"]
 
 
 def test_nonlinear_truth_and_switching_ratio(m):
@@ -107,21 +131,39 @@ def test_real_log_enclosure_by_lateral_acceleration(m):
     assert c["verdict"] == "not comparable"
 
 
-def test_exercise_solutions(m):
-    # 1: largest relative uncertainty keeping entry (2,1) of A^- - L C >= 0
-    a, b = IF.c_r0 * IF.l_r, IF.c_f0 * IF.l_f
-    assert m["ex1_a_max"] == pytest.approx((a - b) / (a + b), rel=1e-3)
-    assert m["ex1_a_max"] == pytest.approx(m["max_rel_unc_metzler"], rel=1e-3)
-    # 2: the hand value is the certificate's mode-1 epsilon with 1/v_min at vertex 1
-    assert m["ex2_epsilon_by_hand"] == pytest.approx(
-        m["printed_min_epsilon_other_polarity"][0], rel=1e-3)
-    # 3: Euler substeps of the design with the printed epsilon (chosen polarity)
-    assert m["ex3_substeps"] == math.ceil(IF.Ts * m["epsilon_printed"][0] - 1e-9)
+def test_exercises_widget_and_animation_ran(m):
+    # every exercise stub says "not attempted", every hidden solution "correct"
+    nb = nbformat.read(str(m["_executed"]), as_version=4)
+    status = {"exercise": [], "solution": []}
+    for c in nb.cells:
+        tags = c.metadata.get("tags", [])
+        for tag in status:
+            if tag in tags:
+                html = "".join("".join(o.get("data", {}).get("text/html", ""))
+                               for o in c.get("outputs", []))
+                status[tag].append(html)
+    assert len(status["exercise"]) == len(status["solution"]) >= 3
+    assert all('data-status="not attempted"' in h for h in status["exercise"])
+    assert all('data-status="correct"' in h for h in status["solution"])
+    # the widget and the animation produced their output (an image / a player)
+    for tag, mime in (("widget", "application/vnd.jupyter.widget-view+json"),
+                      ("animation", "text/html")):
+        cells = [c for c in nb.cells if tag in c.metadata.get("tags", [])]
+        assert len(cells) == 1
+        assert any(mime in o.get("data", {}) for o in cells[0].get("outputs", [])), tag
 
 
 def test_claims_and_files(m):
     doc = m["_doc"]
-    assert len(doc["claims"]) == 8
+    assert {c["item"] for c in doc["claims"]} == {
+        "Theorem 2: the printed P, L solve (17)-(20)",
+        "printed gains within this repository's epsilon <= 1/T_s",
+        "Theorem 2 solution: signs of L", "Theorem 2 solution: magnitudes of L",
+        "Theorem 1 guarantee; Figs. 'interval observer of lateral velocity / yaw rate'",
+        "conclusion: short convergence time",
+        "interval plots on Satory data (nonlinear zone reached)",
+        "switching on v_x bands tightens the intervals",
+        "robust interval estimation on experimental data"}
     assert all(c["rule"] != "(hand-written verdict)" for c in doc["claims"])
     for f in ("intervals_emulated_lpv.png", "intervals_revs.png", "inputs_sigma_emulated.png",
               "widths_switched_vs_single.png", "gains_vs_printed.png", "convergence_widths.png",
@@ -132,14 +174,25 @@ def test_claims_and_files(m):
 def test_notebook_teaches():
     nb = nbformat.read(str(repo_root() / "notebooks" / f"{NB}.ipynb"), as_version=4)
     src = [c.source for c in nb.cells]
-    assert "What you will learn" in src[0]
+    assert "What you will learn" in src[0] and "Prerequisites" in src[0]
     assert sum("knobs" in c.metadata.get("tags", []) for c in nb.cells) == 1
-    ex = [s for s in src if s.startswith("**Exercise")]
-    sol = [s for s in src if s.startswith("**Solution")]
-    assert len(ex) >= 2 and len(sol) == len(ex)
-    assert any(s.startswith("## Appendix") for s in src)
+    # exercises: markdown "**Exercise N.**" in order, then the stub, then the hidden solution
+    ex = [i for i, s in enumerate(src) if s.startswith("**Exercise")]
+    assert [src[i].split(".")[0] for i in ex] == [f"**Exercise {k + 1}" for k in range(len(ex))]
+    assert len(ex) >= 3
+    for i in ex:
+        assert "exercise" in nb.cells[i + 1].metadata.get("tags", [])
+        sol = nb.cells[i + 2]
+        assert "solution" in sol.metadata.get("tags", []) and sol.metadata["jupyter"]["source_hidden"]
+        assert "ex.check_" in nb.cells[i + 1].source and "ex.check_" in sol.source
+    assert not any(s.startswith("**Solution") for s in src)
+    # bookkeeping last: every claim after the Reproduction heading, which precedes the appendix
+    repro = next(i for i, s in enumerate(src) if s.startswith("## Reproduction"))
+    appendix = next(i for i, s in enumerate(src) if s.startswith("## Appendix"))
+    claims = [i for i, s in enumerate(src) if "rep.claim(" in s]
+    assert claims and repro < min(claims) and max(claims) < appendix
     first_code = next(i for i, c in enumerate(nb.cells) if c.cell_type == "code")
-    assert len(src[0].split()) < 300 and first_code == 1
+    assert len(src[0].split()) < 400 and first_code == 1
     body = "\n".join(s for s in src if not s.startswith("## Appendix"))
     for eq in ("3-4", "6-7", "22", "11", "17", "18", "19", "20", "21"):
         assert f"({eq})" in body or f"\\tag{{{eq}}}" in body, eq

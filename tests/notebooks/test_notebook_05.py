@@ -29,6 +29,7 @@ def test_finite_time_reaching(m):
     for nm in SURF:
         assert 0 < m[f"A_t_reach_{nm}"] <= 1.1 * m[f"A_t_nominal_{nm}"]
         assert 0 < m[f"A_t_reach_sign_{nm}"] <= 1.1 * m[f"A_t_nominal_{nm}"]
+        assert 0 < m[f"A_paper_t_reach_{nm}"] <= 1.1 * m[f"A_t_nominal_{nm}"]
         assert m[f"A_gain_margin_{nm}"] > 0  # (13)/(16) hold after reaching
 
 
@@ -49,17 +50,21 @@ def test_boundary_layer_tradeoff(m):
     assert m["A_tradeoff_noisy_sat_phi_10_rmse_mean"] < m["A_tradeoff_noisy_sign_rmse_mean"]
 
 
-def test_robustness_numbers(m):
-    assert m["A_robust_slip_rmse_pct_max"] < 3.0                 # 1.9 %
+def test_robustness_rows_are_the_runs_they_name(m):
+    """Known answers across routes: the nominal row of each robustness study is the run of
+    the same configuration computed elsewhere in the notebook, bit for bit; tyre-parameter
+    errors leave the random-walk EKF unchanged (it has no tyre model); adaptation absorbs the
+    radius error (the F0/sigma intercepts carry it) while P = 0 cannot. The mass error's
+    size is checked against the error dynamics (18)-(19) in
+    tests/papers/test_nb05_sliding_mode_observers.py."""
+    assert m["A_paper_robust_nominal_rmse_pct_max"] == m["A_paper_rmse_pct_max"]
+    assert m["A_robust_nominal_rmse_pct_max"] == m["A_sat_rmse_pct_max"]
+    assert m["A_robust_nominal_noadapt_rmse_pct_max"] == m["A_adapt_sat_none_rmse_pct_max"]
+    for k in ("slip_stiffness_m20_pct", "relaxation_length_p50_pct"):
+        assert m[f"A_ekf_robust_{k}_rmse_pct_max"] == m["A_ekf_robust_nominal_rmse_pct_max"]
+    assert m["A_ekf_robust_nominal_rmse_pct_max"] == m["A_ekf_clean_rmse_pct_max"]
+    assert m["A_robust_wheel_radius_rmse_pct_max"] < m["A_robust_wheel_radius_noadapt_rmse_pct_max"]
     assert m["A_robust_slip_rmse_pct_max"] < m["A_robust_slip_noadapt_rmse_pct_max"]
-    assert m["A_robust_wheel_radius_rmse_pct_max"] < 2.0         # 1.0 %
-    assert m["A_robust_wheel_radius_noadapt_rmse_pct_max"] > 50.0  # 110 %: radius error kills F_x
-    # wheel inertia +20 %: small either way, the adaptation still halves it (0.41 vs 2.2 %)
-    assert m["A_robust_wheel_inertia_rmse_pct_max"] < 1.0
-    assert m["A_robust_wheel_inertia_rmse_pct_max"] < m["A_robust_wheel_inertia_noadapt_rmse_pct_max"]
-    assert m["A_robust_relaxation_rmse_pct_max"] < 2.0           # 0.95 %
-    # mass error: not removable (scale ambiguity), stays a few % of peak
-    assert 1.0 < m["A_robust_m_rmse_pct_max"] < 10.0             # 2.9 %
 
 
 def test_ekf_baseline(m):
@@ -70,6 +75,8 @@ def test_ekf_baseline(m):
     # small lateral peaks and rule 1's Q_F lets the noise through; a diverged filter is > 100 %)
     assert m["A_ekf_clean_rmse_pct_max"] < 5.0
     assert m["A_ekf_noisy_rmse_pct_max"] < 40.0
+    # the paper's sign() observer chatters: on clean data the EKF beats it (1.9 vs 3.3 %, quick)
+    assert m["A_ekf_clean_rmse_pct_max"] < m["A_smo_paper_clean_rmse_pct_max"]
     # the SMO (tyre model) wins on the lateral forces: 44 / 28 N EKF vs 7.7 / 3.6 N SMO clean
     for f in ("Fyf", "Fyr"):
         assert m[f"A_smo_sat_clean_rmse_{f}"] < 0.5 * m[f"A_ekf_clean_rmse_{f}"]
@@ -89,14 +96,13 @@ def test_ekf_baseline(m):
 
 
 def test_sign_headline_full_theta_and_friction_step(m):
-    """Headline with the paper's sign(): 1.6-3.2 % of peak (quick run 3.2 %) with chattering of
-    tens of N; the printed full-theta law works too (3.3 %); the friction step mu 1 -> 0.5
-    costs the non-adaptive observer about three times the adaptive one's error (30.6 vs
-    9.5 %)."""
-    assert m["A_sign_rmse_pct_max"] < 5.0
-    assert m["A_sign_chatter_max"] > 20.0
-    assert m["A_adapt_sign_full_rmse_pct_max"] < 5.0
+    """The paper's configuration (sign(), printed law) computed on two routes gives the same
+    numbers; sign() chatters at tens of N; the friction step mu 1 -> 0.5 costs the
+    non-adaptive observer about three times the adaptive one's error (30.6 vs 9.5 %)."""
+    assert m["A_adapt_sign_full_rmse_pct_max"] == m["A_paper_rmse_pct_max"]
+    assert m["A_adapt_sign_full_chatter_max"] == m["A_paper_chatter_max"]
     assert m["A_adapt_sign_partial_rmse_pct_max"] == m["A_sign_rmse_pct_max"]
+    assert m["A_paper_chatter_max"] > 20.0
     assert m["A_mu_sign_partial_rmse_pct_max"] < 0.5 * m["A_mu_sign_none_rmse_pct_max"]
     assert m["A_mu_sat_partial_rmse_pct_max"] < 0.5 * m["A_mu_sat_none_rmse_pct_max"]
 
@@ -114,20 +120,19 @@ def test_paper_outputs_road_and_wheels(m):
     assert m["B_paper_x22_measured"] == 1.0
 
 
-def test_exercise_solutions(m):
-    """Exercise 1: a 10x wider layer: clean data, more error (lag) and the same step-to-step
-    change (3.04 N both, quick run); noisy data, less error and less chattering (64 -> 32 N,
-    25 -> 6.8 N). Exercise 2: the
-    warp state has zero paper outputs and two directions are lost. Exercise 3: the printed
-    (flipped) adaptation sign does far worse than the stabilising one."""
+def test_layer_tradeoff_warp_and_printed_sign(m):
+    """A 10x wider layer: clean data, more error (lag) and the same step-to-step change (3.04 N
+    both, quick run); noisy data, less error and less chattering (64 -> 32 N, 25 -> 6.8 N).
+    The warp state has zero paper outputs and two directions are lost. The printed (flipped)
+    adaptation sign does far worse than the stabilising one."""
     assert m["A_tradeoff_clean_sat_phi_10_rmse_mean"] > m["A_tradeoff_clean_sat_phi_1_rmse_mean"]
     assert m["A_tradeoff_clean_sat_phi_10_chatter_mean"] == pytest.approx(
         m["A_tradeoff_clean_sat_phi_1_chatter_mean"], rel=0.05)
     assert m["A_tradeoff_noisy_sat_phi_10_rmse_mean"] < 0.7 * m["A_tradeoff_noisy_sat_phi_1_rmse_mean"]
     assert m["A_tradeoff_noisy_sat_phi_10_chatter_mean"] < 0.5 * m["A_tradeoff_noisy_sat_phi_1_chatter_mean"]
-    assert m["ex_warp_max_output"] < 1e-9 and m["ex_warp_max_x11"] == 1.0
-    assert m["ex_warp_n_unobservable"] == 2
-    assert m["ex_adapt_flipped_rmse_pct_max"] > 3 * m["ex_adapt_stabilising_rmse_pct_max"]
+    assert m["B_warp_max_output"] < 1e-9 and m["B_warp_max_x11"] == 1.0
+    assert m["B_warp_n_unobservable"] == 2
+    assert m["A_signflip_flipped_rmse_pct_max"] > 3 * m["A_signflip_stabilising_rmse_pct_max"]
 
 
 def test_model_and_road_generator(m):
@@ -159,17 +164,23 @@ def test_road_robustness_and_noise(m):
 
 
 def test_claims_and_figures(m):
+    """The paper rows are graded on the paper's configuration: Part A on sign() with the
+    printed law, Part B on the raw errors with the outputs (29); the variants are diagnostic
+    rows, the EKF comparisons baseline rows; Fig. 9 (measured body rates) is not comparable."""
     doc = m["_doc"]
     claims = {c["item"]: c for c in doc["claims"]}
-    assert {"Figs. 4-5", "Fig. 6", "Fig. 6, boundary layer", "(20)-(22) full theta",
-            "Sec. V robustness", "Sec. V road condition", "Fig. 8", "Fig. 9", "Fig. 10", "Fig. 7",
-            "EKF baseline, Part A forces"} <= set(claims)
+    paper = {k for k, c in claims.items() if c["kind"] == "paper"}
+    assert paper == {"Figs. 4-5", "Fig. 6", "Sec. V robustness", "Sec. V road condition", "Fig. 7",
+                     "Fig. 8", "Fig. 9", "Fig. 10"}
+    assert {k for k, c in claims.items() if c["kind"] == "baseline"} == {
+        "EKF baseline, Part A forces", "EKF baseline vs boundary-layer SMO (variant)"}
     for c in doc["claims"]:
         assert c["rule"] != "(hand-written verdict)", c["item"]
-    # Fig. 9 compares measured body rates; Figs. 8 and 10 hold only modulo lost directions
-    for item in ("Fig. 8", "Fig. 9", "Fig. 10"):
-        assert claims[item]["proves_little"], item
-    assert claims["Fig. 6"]["value"] == m["A_sign_rmse_pct_max"]
+        assert c["kind"] == "paper" or "(variant)" in c["item"] or c["kind"] == "baseline", c["item"]
+    assert claims["Fig. 6"]["value"] == m["A_paper_rmse_pct_max"]
+    assert claims["Sec. V road condition"]["value"] == m["A_mu_sign_full_rmse_pct_max"]
+    assert claims["Fig. 10"]["value"] == m["B_paper_belgian_U_rmse_pct_mean"]
+    assert claims["Fig. 9"]["verdict"] == "not comparable"
     for c in doc["claims"]:
         if c["figure"]:
             assert (m["_dir"] / f"{c['figure']}.png").exists()

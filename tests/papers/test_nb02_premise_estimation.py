@@ -56,3 +56,23 @@ def test_theory_check_t_informative_matches_the_bound_itself():
     assert tc["bound_paper"][k - 1] >= tc["e0"] * (1 - 1e-6)
     assert tc["bound_paper"][k + 1] < tc["e0"]
     assert tc["alpha"] == 0.5 and tc["max_ratio"] <= 1
+
+
+def test_scaled_mismatch_interpolates_between_the_paper_car_and_the_mismatch():
+    assert ys.scaled_mismatch(1.0) == pytest.approx(ys.MISMATCH)
+    zero = ys.scaled_mismatch(0.0)
+    assert zero["r"] == Y.r_relax and all(v == 0 for k, v in zero.items() if k != "r")
+    half = ys.scaled_mismatch(0.5)
+    assert half["D"] == pytest.approx(-0.05) and half["r"] == pytest.approx(0.125)
+    p = ys.mismatched_params(None, zero)
+    assert (p.tire_f, p.tire_r, p.m, p.I_z, p.r_f) == (Y.tire_f, Y.tire_r, Y.m, Y.I_z, Y.r_relax)
+
+
+def test_certificate_counts_never_count_inconclusive_as_feasible():
+    rows = [{"alpha": 1e-3, "config": "(33) alone", "feasible": True, "status": "certified"},
+            {"alpha": 1.0, "config": "(33) alone", "feasible": True, "status": "certified"},
+            {"alpha": 5.0, "config": "(33) alone", "feasible": True, "status": "inconclusive"},
+            {"alpha": 10.0, "config": "(33) alone", "feasible": False, "lmi": "Xi[2]"},
+            {"alpha": 2.0, "config": "other", "feasible": True, "status": "certified"}]
+    assert ys.certificate_counts(rows) == {"n": 4, "certified": 2, "inconclusive": 1, "infeasible": 1,
+                                           "max_certified_alpha": 1.0}

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -275,6 +276,13 @@ class LMISolution:
     def __getitem__(self, key):
         return self.values[key]
 
+    @property
+    def solver_inaccurate(self) -> bool:
+        """The solver reported ``optimal_inaccurate`` (cvxpy's "Solution may be inaccurate"):
+        only the certificate (:attr:`certificate`, its ``status``) says whether the returned
+        point satisfies the LMIs, and by how much."""
+        return str(self.status).endswith("inaccurate")
+
     def summary(self) -> str:
         obj = "" if self.objective is None else f", objective {self.objective:.6g}"
         return (f"{self.name}: {self.status}{obj}, solve {self.solve_time*1e3:.0f} ms, "
@@ -453,7 +461,13 @@ class LMIDesign:
         prob = cp.Problem(obj, cons)
         t0 = time.perf_counter()
         try:
-            prob.solve(solver=solver, **solver_kw)
+            with warnings.catch_warnings():
+                # cvxpy warns "Solution may be inaccurate" for the status optimal_inaccurate;
+                # the status is kept in LMISolution.status (``solver_inaccurate``) and the
+                # independent certificate decides, so the warning is not repeated to the user
+                warnings.filterwarnings("ignore", message="Solution may be inaccurate",
+                                        category=UserWarning)
+                prob.solve(solver=solver, **solver_kw)
         except cp.error.SolverError as exc:
             raise InfeasibleDesign(f"{self.name}: solver {solver} failed ({exc})",
                                    status="solver_error") from exc

@@ -119,8 +119,10 @@ def bicycle_ts(bp: BicycleParams, bounds) -> SectorTS:
     """8-submodel TS model; ``bounds`` = [(z1min, z1max), (z2min, z2max), (z3min, z3max)]."""
     names = ["z1 = (g/p) sin(x3)/x3", "z2 = (1/p)(1 + p x2 sin x3) cos(x3) v^2",
              "z3 = (c/p) cos(x3) v"]
-    prem = [Premise(nm, lo, hi, "1/s^2" if k < 2 else "1/s")
-            for k, (nm, (lo, hi)) in enumerate(zip(names, bounds))]
+    # units from (25), where d(x4)/dt is in rad/s^2: z1 multiplies the roll x3 [rad] (1/s^2),
+    # z2 the curvature x2 = d(x1)/dt / v [rad/m] (m/s^2); z3 = (c/p) cos(x3) v is in m/s
+    prem = [Premise(nm, lo, hi, unit)
+            for (nm, (lo, hi)), unit in zip(zip(names, bounds), ("1/s^2", "m/s^2", "m/s"))]
     return SectorTS(prem, lambda z: ts_matrices(z, bp),
                     premise_fn=lambda x, u: ts_premises(x, u, bp),
                     name="Ichalal 2011 bicycle TS model")

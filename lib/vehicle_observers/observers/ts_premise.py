@@ -35,7 +35,8 @@ on the emulated lap), which is a congruence of (33) with ``diag(S, I_2)``: feasi
 ``(P, M_i, c)`` is removed by ``P~ >= I`` (feasibility unchanged). Two constraints are
 *added to the paper's conditions* by default: ``P~ <= p_max I`` (1e3) bounds the eigenvalue
 spread of ``P~`` (it enters the bound (34) through ``alpha_2/alpha_1``; it is what makes the
-design infeasible from alpha = 1 on, while (33) alone stays feasible up to alpha = 10), and a
+design infeasible from alpha = 1 on, while (33) alone stays certified up to alpha = 1 and
+sign-feasible but only inconclusive (``Certificate.status``) from alpha = 2 to 10), and a
 disk LMI region ``|lambda| < R`` (R = 600 1/s; Chilali-Gahinet, same
 ``P``) on every vertex ``A_i - L_i C`` keeps the observer poles implementable at the paper's
 1 kHz (RK4 needs ``|lambda| dt`` well below 2.8). The objective minimises ``c`` (it scales
@@ -268,8 +269,8 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
     to the paper** unless set to ``None``: ``P~ <= p_max I`` (conditioning bound) and the
     disk region ``|lambda(A_i - L_i C)| < disk_radius`` [1/s]. Both added constraints
     restrict (33): an infeasibility with them is not an infeasibility of Theorem 1 (for the
-    paper's bounds (33) alone is feasible up to alpha = 10 at least; ``p_max`` is what fails
-    first as alpha grows). Objective ``min c``.
+    paper's bounds (33) alone is certified up to alpha = 1, sign-feasible but inconclusive
+    from alpha = 2 to 10; ``p_max`` is what fails first as alpha grows). Objective ``min c``.
     Raises :class:`InfeasibleDesign` naming the worst vertex and the best achievable largest
     eigenvalue of (33) (found by :func:`diagnose_infeasible`) when there is no solution,
     :class:`CertificationError` if a returned solution fails either certificate, and

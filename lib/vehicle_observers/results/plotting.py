@@ -122,27 +122,3 @@ def grouped_bars(ax, groups, series, value, log: bool = False, labels=None) -> f
     if log:
         ax.set_yscale("log")
     return w
-
-
-def tyre_sector(tires: dict, alpha_max: float, bounds: dict | None = None):
-    """Force and secant stiffness of tyres ``{name: tyre}`` over ``|alpha| <= 1.5 alpha_max``,
-    with the sector bounds ``{name: (M_min, M_max)}`` drawn as lines ``M alpha``."""
-    a = np.linspace(-1.5 * alpha_max, 1.5 * alpha_max, 601)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 3.6))
-    for name, tyre in tires.items():
-        (line,) = ax1.plot(np.degrees(a), tyre.force(a), label=f"{name}: Pacejka")
-        ax2.plot(np.degrees(a), tyre.secant_stiffness(a), color=line.get_color(), label=name)
-        if bounds and name in bounds:
-            for M in bounds[name]:
-                ax1.plot(np.degrees(a), M * a, ":", color=line.get_color(), lw=0.9)
-                ax2.axhline(M, ls=":", color=line.get_color(), lw=0.9)
-    for ax in (ax1, ax2):
-        ax.axvspan(-np.degrees(alpha_max), np.degrees(alpha_max), color="0.9", zorder=0)
-        ax.set_xlabel("slip angle alpha [deg]")
-    ax1.set_ylabel("lateral force F^S [N]")
-    ax2.set_ylabel("secant stiffness f = F^S / alpha [N/rad]")
-    ax1.set_title("Pacejka (7) and sector lines M alpha")
-    ax2.set_title("premise f(alpha), eq. (16), and its bounds")
-    ax1.legend()
-    ax2.legend()
-    return fig

@@ -170,8 +170,14 @@ def live_figure(draw: Callable, **sliders):
 
     controls = w.interactive(redraw, **sliders)
     controls.children[-1].layout.display = "none"  # interactive's own (empty) output area
-    display(w.VBox([w.HBox(list(controls.children[:-1])), out],
-                   layout=w.Layout(border="1px solid #d0d7de", padding="4px")))
+    box = w.VBox([w.HBox(list(controls.children[:-1])), out],
+                 layout=w.Layout(border="1px solid #d0d7de", padding="4px"))
+    bundle = box._repr_mimebundle_()
+    # where no widget manager runs (exported HTML, a terminal) the text says what is missing,
+    # instead of the widget's repr
+    bundle["text/plain"] = (f"[live figure with sliders {', '.join(sliders)}: open the notebook "
+                            "in JupyterLab with a running kernel to use it]")
+    display(bundle, raw=True)
     redraw(**{k: s.value for k, s in sliders.items()})
     return None
 

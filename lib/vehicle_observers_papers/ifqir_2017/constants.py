@@ -49,14 +49,14 @@ eps_decay = 1.0          # 1/s
 epsilon_shift = 1000.0   # 1/s
 accel_max = 3.0          # m/s^2
 p_min = 1.0
-Ts = 0.001
+Ts = 0.001               # s, 1 kHz like the Satory data
 #: vertex polarity of the premise 1/v_x (not printed). False: vertices 1-2 use its lower
 #: bound 1/v_max, vertices 3-4 its upper bound 1/v_min (the reverse of the :mod:`models.ts`
 #: convention). Chosen because the Theorem 2 gains designed with it are closer to the printed
 #: ones (mean |log10 L/L_printed| 0.39 against 0.64 over the 3 modes) and put the largest
-#: L2 of mode 1 at vertices 1-2, where the slides print L2 = 4383 (notebook 03, section 2;
+#: L2 of mode 1 at vertices 1-2, where the slides print L2 = 4383 (notebook 03, Reproduction;
 #: tests/papers/test_ifqir2017.py)
-inv_vx_upper_first = False               # s, 1 kHz like the Satory data
+inv_vx_upper_first = False
 
 # ---- printed Theorem 2 solution (slides, "Solving the linear matrix inequalities") -------
 #: P_i^j diagonals, shape (3 modes, 4 vertices, 2)

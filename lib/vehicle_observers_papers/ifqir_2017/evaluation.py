@@ -105,14 +105,17 @@ def plot_inputs(t, vx, delta, sigma, bands: ub.SpeedBands, title: str = ""):
     tt, d, v, s = decimate(t, delta, vx, np.asarray(sigma) + 1, max_points=2000)
     ax[0].plot(tt, np.degrees(d), color=PALETTE[0])
     ax[0].set_ylabel(r"$\delta_f$ [deg]")
-    ax[1].plot(tt, v, color=PALETTE[0])
-    for e in bands.edges:
-        ax[1].axhline(e, color="0.5", ls=":", lw=0.8)
+    ax[0].lines[0].set_label(r"steering $\delta_f$")
+    ax[1].plot(tt, v, color=PALETTE[0], label="speed $v_x$")
+    for k, e in enumerate(bands.edges):
+        ax[1].axhline(e, color="0.5", ls=":", lw=0.8, label="band edges (22)" if k == 0 else None)
     ax[1].set_ylabel("$v_x$ [m/s]")
-    ax[2].step(tt, s, where="post", color=PALETTE[0])
-    ax[2].set_ylabel(r"$\sigma(t)$ [mode]")
+    ax[2].step(tt, s, where="post", color=PALETTE[0], label=r"mode $\sigma(t)$")
+    ax[2].set_ylabel(r"$\sigma(t)$ [-] (mode index)")
     ax[2].set_yticks(range(1, bands.n_modes + 1))
     ax[2].set_xlabel("$t$ [s]")
+    for a in ax:
+        a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     if title:
         fig.suptitle(title)
     return fig
@@ -122,19 +125,27 @@ _STATES = (("v_y", "m/s"), ("r", "rad/s"))
 
 
 def _band(ax, tt, lo, hi, k, label):
+    """The first observer (``k = 0``) as a filled band; the others as their two edges only
+    (dashed, no fill), so two overlapping bands never blend into a third colour."""
     col = PALETTE[k % len(PALETTE)]
-    ax.fill_between(tt, lo, hi, color=col, alpha=0.35 if k == 0 else 0.18, lw=0,
-                    label=label, zorder=2 - k)
-    ax.plot(tt, lo, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
-    ax.plot(tt, hi, color=col, lw=0.7, ls="-" if k == 0 else "--", zorder=3)
+    if k == 0:
+        ax.fill_between(tt, lo, hi, color=col, alpha=0.35, lw=0, label=label, zorder=2)
+        ax.plot(tt, lo, color=col, lw=0.7, zorder=3)
+        ax.plot(tt, hi, color=col, lw=0.7, zorder=3)
+        return
+    ax.plot(tt, lo, color=col, lw=0.9, ls="--", zorder=3 + k, label=label + " (edges)")
+    ax.plot(tt, hi, color=col, lw=0.9, ls="--", zorder=3 + k)
 
 
 def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=None,
-                   truth_label: str = "truth", error_panel: bool = False):
+                   truth_label: str = "truth", error_panel: bool = False,
+                   t_transient: float = 1.0):
     """Interval estimates of v_y and r (``results = {label: IntervalRun}``) with the
     reference (the slides' two result figures, stacked). ``error_panel=True`` adds, per
     state, a panel with each observer's interval relative to the reference
-    (``x^- - x`` and ``x^+ - x``: the reference is enclosed where the band contains 0)."""
+    (``x^- - x`` and ``x^+ - x``: the reference is enclosed where the band contains 0), its
+    vertical scale set by the samples after ``t_transient`` s (the initial box leaves the
+    axis)."""
     import matplotlib.pyplot as plt
     from vehicle_observers.core.arrays import decimate
 
@@ -163,7 +174,49 @@ def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=No
                 _band(e, tt, lo, hi, k, f"$[{nm}^- - {nm},\\ {nm}^+ - {nm}]$ {lab}")
             e.axhline(0.0, color="k", lw=0.9)
             e.set_ylabel(f"interval $-$ ${nm}$ [{unit}]")
+            # scaled after the start transient (the initial box would flatten the rest)
+            late = t[sel] >= t[sel][0] + t_transient
+            if late.any():
+                big = max(float(np.abs(res.x_lo[sel, c][late] - r[late]).max())
+                          for res in results.values())
+                big = max(big, max(float(np.abs(res.x_hi[sel, c][late] - r[late]).max())
+                                   for res in results.values()))
+                e.set_ylim(-1.15 * big, 1.15 * big)
             e.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    ax[-1].set_xlabel("$t$ [s]")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_margins(t, res: iv.IntervalRun, truth, title: str = "", truth_label: str = "truth",
+                 floor: float = 1e-9):
+    """Interval against the truth ``(N, 2)``, one pair of panels per state: the band with the
+    truth, and below it the two margins ``x^+ - x`` and ``x - x^-`` [state unit] on a log
+    axis (both > 0 where the truth is enclosed; values below ``floor`` drawn at ``floor``).
+    A narrow interval (the yaw rate's) is invisible at the scale of the state; its margins
+    are not. 4 axes."""
+    import matplotlib.pyplot as plt
+    from vehicle_observers.core.arrays import decimate
+
+    truth = np.asarray(truth, dtype=float)
+    fig, ax = plt.subplots(4, 1, sharex=True, figsize=(9.0, 9.0),
+                           gridspec_kw={"height_ratios": [1.0, 0.8, 1.0, 0.8]})
+    for c, (nm, unit) in enumerate(_STATES):
+        a, b = ax[2 * c], ax[2 * c + 1]
+        tt, lo, hi, x = decimate(t, res.x_lo[:, c], res.x_hi[:, c], truth[:, c], max_points=3000)
+        _band(a, tt, lo, hi, 0, f"$[{nm}^-, {nm}^+]$")
+        a.plot(tt, x, color="k", lw=0.9, label=truth_label, zorder=4)
+        a.set_ylabel(f"${nm}$ [{unit}]")
+        a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+        tt, up, dn = decimate(t, res.x_hi[:, c] - truth[:, c], truth[:, c] - res.x_lo[:, c],
+                              max_points=3000)
+        b.semilogy(tt, np.maximum(up, floor), color=PALETTE[0], lw=0.8,
+                   label=f"upper margin ${nm}^+ - {nm}$")
+        b.semilogy(tt, np.maximum(dn, floor), color=PALETTE[1], lw=0.8, ls="--",
+                   label=f"lower margin ${nm} - {nm}^-$")
+        b.set_ylabel(f"margin [{unit}]")
+        b.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     ax[-1].set_xlabel("$t$ [s]")
     if title:
         fig.suptitle(title)

@@ -47,6 +47,20 @@ SETTLE_FRAC = 0.02
 CONV_HORIZON = 5.0
 
 
+def metrics_line(label: str, m: dict) -> str:
+    """One readable line of :func:`evaluation.interval_metrics` output ``m``: enclosure,
+    mean / max width and largest excursion of ``v_y`` [m/s] and ``r`` [rad/s]."""
+    parts = [f"{label:9s}"]
+    if "enclosure_vy" in m:
+        parts.append(f"enclosure v_y {m['enclosure_vy']:.4f}, r {m['enclosure_r']:.4f};")
+    parts.append(f"mean width v_y {m['width_mean_vy']:.4f} m/s, r {m['width_mean_r']:.2e} rad/s; "
+                 f"max width v_y {m['width_max_vy']:.3f} m/s, r {m['width_max_r']:.2e} rad/s")
+    if "max_excursion_vy" in m:
+        parts.append(f"; largest excursion v_y {m['max_excursion_vy']:.2e} m/s, r "
+                     f"{m['max_excursion_r']:.2e} rad/s")
+    return " ".join(parts)
+
+
 def _ratio(a: dict, b: dict, key: str) -> float:
     """``a[key] / b[key]`` (switched / single-mode width)."""
     return a[key] / b[key]
@@ -172,11 +186,16 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
                 for i, j, c in np.argwhere(~same)]
     lr = log_ratio(L, Lp)
     ratio = np.abs(L) / np.abs(Lp)
+    act = active_constraints(des)
+    free = ~np.stack([act["at_metzler"], act["at_cap"]], axis=-1)     # (K, 4, 2) per entry
+    rows = [{"mode.vertex": f"{i + 1}.{j + 1}", "L1 designed [m/s]": L[i, j, 0],
+             "L1 printed [m/s]": Lp[i, j, 0], "L2 designed [1/s]": L[i, j, 1],
+             "L2 printed [1/s]": Lp[i, j, 1], "P22/P11 designed": des.P[i, j, 1] / des.P[i, j, 0],
+             "P22/P11 printed": Pp[i, j, 1] / Pp[i, j, 0]}
+            for i in range(L.shape[0]) for j in range(L.shape[1])]
     text = "\n".join([
-        f"designed L_i^j (rows: mode; [L1, L2] per vertex):\n{L}",
-        f"printed  L_i^j:\n{Lp}", f"designed diag P_i^j:\n{des.P}", f"printed  diag P_i^j:\n{Pp}",
-        f"L1 shift v_max -> v_min vertex, modes 2-3: designed {shift_des.ravel()}  printed "
-        f"{shift_pr.ravel()}",
+        f"L1 shift v_max -> v_min vertex, modes 2-3: designed {np.round(shift_des, 3).tolist()}  "
+        f"printed {np.round(shift_pr, 3).tolist()} m/s",
         f"signs equal to the printed ones: {same.sum()} of {same.size}; different at (mode, "
         f"vertex, row, value): {mismatch}"])
     metrics = {"L_designed": (L, "", "[L1 m/s, L2 1/s] per mode, vertex"),
@@ -185,12 +204,38 @@ def gain_comparison(des: iv.IntervalDesign, L_printed=None, P_printed=None) -> d
                "L1_shift_printed": (shift_pr, "m/s", ""),
                "L_sign_agreement": (float(same.mean()), "", "share of the 24 printed signs"),
                "L_log_ratio_mean": (float(lr.mean()), "", "mean |log10(L/L_printed)|, 3 modes"),
-               "L_log_ratio_mean_modes23": (float(lr[1:].mean()), "", "modes 2-3")}
+               "L_log_ratio_mean_modes23": (float(lr[1:].mean()), "", "modes 2-3"),
+               "L2_at_epsilon_cap_share": (float(act["at_cap"].mean()), "",
+                                           "share of the 12 designed L2 on the (20) diagonal "
+                                           "bound -(A^- - LC)_22 = epsilon"),
+               "L1_at_metzler_limit_share": (float(act["at_metzler"].mean()), "",
+                                             "share of the 12 designed L1 on the Metzler bound "
+                                             "(A^- - LC)_12 = 0"),
+               "L_log_ratio_free": (float(lr[free].mean()), "",
+                                    f"mean |log10(L/L_printed)| over the {int(free.sum())} "
+                                    "entries on no active (20) bound")}
+    text += (f"\nL2 on the epsilon bound (mode, vertex): "
+             f"{[(int(i) + 1, int(j) + 1) for i, j in np.argwhere(act['at_cap'])]}; "
+             f"L1 on the Metzler bound: "
+             f"{[(int(i) + 1, int(j) + 1) for i, j in np.argwhere(act['at_metzler'])]}")
     return {"des": des, "L_printed": Lp, "P_printed": Pp, "shift_designed": shift_des,
             "shift_printed": shift_pr, "sign_agreement": float(same.mean()),
             "sign_mismatch": mismatch, "log_ratio": lr,
-            "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text,
+            "ratio_range": [float(ratio.min()), float(ratio.max())], "text": text, "rows": rows,
             "metrics": metrics}
+
+
+def active_constraints(des: iv.IntervalDesign, cap_rtol: float = 1e-3,
+                       metzler_tol: float = 1e-2) -> dict:
+    """Which entries of the designed gains sit on a bound of (20) rather than where the
+    objective (min sum gamma_i) puts them: ``at_cap`` (K, 4) bool, ``L2`` on the diagonal bound
+    ``-(A^- - L C)_22 >= (1 - cap_rtol) epsilon`` (the ``epsilon`` of the design, [1/s]);
+    ``at_metzler`` (K, 4) bool, ``L1`` on the Metzler bound ``(A^- - L C)_12 <= metzler_tol``
+    [1/s]. ``M`` (K, 4, 2, 2): ``A^- - L C``."""
+    M = des.model.A_lo - des.L @ des.model.C
+    eps = np.inf if des.epsilon_shift is None else des.epsilon_shift
+    return {"at_cap": -M[..., 1, 1] >= (1 - cap_rtol) * eps,
+            "at_metzler": M[..., 0, 1] <= metzler_tol, "M": M}
 
 
 def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> dict:
@@ -209,6 +254,8 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
         metrics.update({
             f"printed_gamma_per_mode{sfx}": (c.gammas, "", "(19) with printed P, W = P L"),
             f"printed_lmi_margin{sfx}": (c.lmi_margin, "", "min eigenvalue margin (17)-(19)"),
+            f"printed_lmi_relative_margin{sfx}": (c.solution.certificate.min_relative_margin, "",
+                                                  "min relative eigenvalue margin (17)-(19)"),
             f"printed_lmi_status{sfx}": (c.solution.certificate.status, "",
                                          "LMI certificate: certified / inconclusive / violated"),
             f"printed_metzler_margin_min{sfx}": (c.metzler_margins.min(), "1/s", ""),
@@ -302,8 +349,8 @@ def lpv_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.IntervalDesig
         metrics[f"lpv_width_ratio_{c}"] = (_ratio(m, m1, f"width_mean_{c}"), "",
                                            "switched / single")
     metrics["euler_substeps"] = (res.substeps, "", "")
-    text = (f"max |dv_x/dt| of the run: {acc} m/s^2 (phi assumes {IF.accel_max})"
-            f"\nswitched: {m}\nsingle:   {m1}")
+    text = (f"max |dv_x/dt| of the run: {acc:.3f} m/s^2 (phi assumes {IF.accel_max:g})\n"
+            f"{metrics_line('switched', m)}\n{metrics_line('single', m1)}")
     return {"t": t, "dt": dt, "vx": vx, "delta": d, "xi": xi, "X": X, "res": res, "res1": res1,
             "m": m,
             "m1": m1, "enclosure": min(m["enclosure_vy"], m["enclosure_r"]), "max_accel": acc,
@@ -343,18 +390,42 @@ def convergence_study(lpv: dict, des: iv.IntervalDesign, des1: iv.IntervalDesign
         out = [_settle(de, t, vx, d, X, dt, k, n_h, box0, frac) for k in starts]
         times[lab] = np.array([o[0] for o in out])
         curves[lab] = [o[1] for o in out]
-    ts, t1 = times["switched"], times["single mode"]
+    out = [_settle_open_loop(des.model.veh, lpv["xi"], t, vx, d, X, dt, k, n_h, box0, frac)
+           for k in starts]
+    times["open loop"] = np.array([o[0] for o in out])
+    curves["open loop"] = [o[1] for o in out]
+    ts, t1, t0 = times["switched"], times["single mode"], times["open loop"]
     metrics = {"conv_time": (ts, "s", f"per mode [v_y, r]; {100 * frac:g} % of the initial-"
                                       "box effect"),
                "conv_time_max": (float(np.nanmax(ts)), "s", "switched, over modes and states"),
                "conv_time_single": (t1, "s", "same starts"),
                "conv_time_single_max": (float(np.nanmax(t1)), "s", ""),
+               "conv_time_open_loop": (t0, "s", "open-loop model (L = 0) from the box corner, "
+                                                "per mode [v_y, r]"),
+               "conv_time_open_loop_max": (float(np.nanmax(t0)), "s",
+                                           "open-loop model (L = 0), over modes and states"),
                "conv_start_speed": ([float(vx[k]) if k >= 0 else float("nan") for k in starts],
                                     "m/s", "")}
     text = "\n".join(f"{lab:12s}: width settling times [s] per mode (rows) for [v_y, r]:\n"
                      f"{np.round(tt, 4)}" for lab, tt in times.items())
     return {"starts": starts, "times": times, "curves": curves, "frac": frac,
             "speeds": metrics["conv_start_speed"][0], "text": text, "metrics": metrics}
+
+
+def _settle_open_loop(veh, xi, t, vx, d, X, dt, k, n_h, box0, frac):
+    """Open-loop baseline of :func:`convergence_study` (no output injection, ``L = 0``): the
+    LPV model (3)-(4) with the truth's stiffness ``xi`` simulated from the box corner
+    ``x(t0) + box0[1]`` and from ``x(t0)``; settling times [v_y, r] of their difference
+    (:func:`evaluation.settling_time`, ``frac`` of its initial value) and the curves ``(t - t0,
+    relative difference (n, 2))``; ``None`` curves if the mode is not reached."""
+    if k < 0:
+        return [float("nan"), float("nan")], None
+    sl = slice(k, k + n_h)
+    run = lambda x0: ub.simulate_lpv(veh, x0, d[sl], vx[sl], xi[sl], dt)
+    xa, xb = run(X[k] + box0[1]), run(X[k])
+    dev = np.abs(xa - xb)
+    return ([ev.settling_time(t[sl], xa[:, c], xb[:, c], frac) for c in range(2)],
+            (t[sl] - t[k], dev / dev[0]))
 
 
 def _settle(de, t, vx, d, X, dt, k, n_h, box0, frac):
@@ -410,7 +481,8 @@ def nonlinear_experiment(log: DriveLog, des: iv.IntervalDesign, des1: iv.Interva
                                             f"{MIN_SLIP_DEG} deg")
     metrics["nl_stiffness_in_box_rear"] = (st["rear"], "", "")
     metrics["nl_n_clipped"] = (res.n_clipped, "", "")
-    text = (f"switched: {m}\nsingle:   {m1}\nspeed samples clipped: {res.n_clipped}\n"
+    text = (f"{metrics_line('switched', m)}\n{metrics_line('single', m1)}\n"
+            f"speed samples clipped: {res.n_clipped}\n"
             f"samples with |alpha| > {MIN_SLIP_DEG} deg: {st['share_big_slip']:.3f}; effective "
             f"stiffness F/alpha inside the box: front {st['front']:.3f}, rear {st['rear']:.3f}")
     return {"t": log.t, "truth": truth, "res": res, "res1": res1, "m": m, "m1": m1,
@@ -463,7 +535,7 @@ def revs_experiment(quick: bool = False, span: float | None = None) -> dict:
                                             "switched / single")
     lines = [f"gamma_i {np.round(rdes.gammas, 4)} single {round(rdes1.gamma, 4)} LMI margin "
              f"{rdes.lmi_margin:.1e} Metzler margin {rdes.min_metzler_margin:.1e} substeps "
-             f"{res.substeps}", f"switched: {m}", f"single:   {m1}"]
+             f"{res.substeps}", metrics_line("switched", m), metrics_line("single", m1)]
     for r in by_ay:
         sfx = f"ay_{r['lo']}_{r['hi']}"
         metrics[f"revs_enclosure_vy_{sfx}"] = (r["enclosure_vy"], "", "")
@@ -499,28 +571,31 @@ def fig_gains(gc: dict, po: dict | None = None):
 
 
 def fig_convergence(cv: dict):
-    """Effect of the initial box on the widths after a restart in each mode, relative to its
-    initial value (log scale), switched vs single mode, with the settling level
-    (:func:`convergence_study` output); 2 axes (v_y, r)."""
+    """Effect of the initial box after a restart in each mode, relative to its initial value
+    (log scale): on the widths of the switched and single-mode observers, and on the state of
+    the open-loop model (``L = 0``), with the settling level (:func:`convergence_study`
+    output); 2 axes (v_y, r)."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(10.0, 3.8), sharey=True)
-    styles = {"switched": "-", "single mode": "--"}
+    fig, ax = plt.subplots(1, 2, figsize=(11.0, 3.8), sharey=True)
+    styles = {"switched": ("-", 1.3), "single mode": ("--", 1.0), "open loop": (":", 1.3)}
     for lab, curves in cv["curves"].items():
         for i, cur in enumerate(curves):
             if cur is None:
                 continue
+            ls, lw = styles[lab]
             for c in range(2):
-                ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), styles[lab],
+                ax[c].semilogy(cur[0], np.maximum(cur[1][:, c], 1e-6), ls, lw=lw,
                                color=ev.PALETTE[i % len(ev.PALETTE)],
                                label=f"{lab}, mode {i + 1} ($v_x$ = {cv['speeds'][i]:.1f} m/s)")
     for c, nm in enumerate(("$v_y$", "$r$")):
-        ax[c].axhline(cv["frac"], color="k", lw=0.8, ls=":")
+        ax[c].axhline(cv["frac"], color="0.4", lw=0.8, ls="-.",
+                      label=f"settling level {100 * cv['frac']:g} %" if c == 1 else None)
         ax[c].set_ylim(1e-5, 2.0)
         ax[c].set_xlabel("$t - t_0$ [s]")
-        ax[c].set_title(f"width of {nm}: effect of the initial box")
-    ax[0].set_ylabel("$|w - w_{point}| / |w(t_0) - w_{point}(t_0)|$ [-]")
-    ax[1].legend(fontsize=7, loc="upper right")
+        ax[c].set_title(f"{nm}: effect of the initial box")
+    ax[0].set_ylabel("relative effect of the initial box [-]")
+    ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     return fig
 
 
@@ -532,11 +607,11 @@ def fig_inputs_emulated(lpv: dict):
 
 
 def fig_intervals_lpv(lpv: dict):
-    """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation);
-    2 axes."""
-    return ev.plot_intervals(lpv["t"], {"switched": lpv["res"]}, lpv["X"][:, 0], lpv["X"][:, 1],
-                             "Interval observer on the LPV truth (stiffness varying inside the "
-                             "+-10 % box)", truth_label="LPV truth")
+    """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation),
+    each with its margins ``x^+ - x``, ``x - x^-`` on a log axis below it; 4 axes."""
+    return ev.plot_margins(lpv["t"], lpv["res"], lpv["X"],
+                           "Interval observer on the LPV truth (stiffness varying inside the "
+                           r"$\pm$10 % box)", truth_label="LPV truth")
 
 
 def fig_intervals_nonlinear(nl: dict):
@@ -577,35 +652,120 @@ def fig_intervals_revs(revs: dict, zoom: bool = False):
                              truth_label="measured")
 
 
-# ------------------------------------------------------------------ interactive ------------
-def box_explorer(log: DriveLog, bands: ub.SpeedBands, rel_unc0: float = 0.10, seed: int = 0,
-                 interactive: bool = False):
-    """Slider for the stiffness box half-width (Assumption 3): each move re-solves Theorem 2
-    (certified) for ``IF.vehicle`` with that box and reruns :func:`lpv_experiment` on ``log``
-    (truth inside the same box), then shows the enclosure and the mean widths of ``v_y`` and
-    ``r`` (switched observer). ``interactive=False`` (papermill, quick runs) returns ``None``
-    and shows nothing; else the ipywidgets container."""
-    if not interactive:
-        return None
+# ------------------------------------------------------------------ teaching ---------------
+#: time span [s] of the live box figure (short, so one redraw stays near one second)
+BOX_SPAN = (8.0, 24.0)
+
+
+def box_band_run(log: DriveLog, bands: ub.SpeedBands, rel_unc: float, seed: int = 0,
+                 span: tuple[float, float] = BOX_SPAN) -> dict:
+    """The switched observer for a stiffness box of half-width ``rel_unc`` (fraction of
+    ``c_0``, Assumption 3) on the LPV truth, over ``span`` [s] of the emulated ``log``: the
+    Theorem 2 design for that box (:func:`.constants.design`), a seeded stiffness trajectory
+    inside the same box and the observer from the point box at the truth. Returns ``t``,
+    ``X`` (N, 2) truth, ``res``, ``m`` (:func:`evaluation.interval_metrics`, widths after 1 s)
+    and ``a_max`` (the Metzler limit of the box); ``res`` is ``None`` and ``error`` the reason
+    when no certified design exists (e.g. ``rel_unc > a_max``: Theorem 1 has no gain)."""
     import dataclasses
 
-    import ipywidgets as w
-    from IPython.display import display
     from vehicle_observers.core.errors import InfeasibleDesign
-    from vehicle_observers.results.tables import show_table
 
-    def show(rel_unc):
-        veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
-        try:
-            des = IF.design(bands, veh)
-            des1 = IF.design(ub.SpeedBands((bands.edges[0], bands.edges[-1])), veh)
-        except InfeasibleDesign as exc:
-            print(f"+-{100 * rel_unc:.0f} %: no certified design ({str(exc).splitlines()[0]})")
-            return
-        m = lpv_experiment(log, des, des1, seed=seed)["m"]
-        display(show_table([{"box": f"+-{100 * rel_unc:.0f} %", "enclosure v_y": m["enclosure_vy"],
-                             "mean width v_y [m/s]": m["width_mean_vy"],
-                             "mean width r [rad/s]": m["width_mean_r"]}]))
+    veh = dataclasses.replace(IF.vehicle, rel_unc=rel_unc)
+    seg = log.segment(*span)
+    t, dt = seg.t, seg.dt
+    vx, d = seg.extra["vx_true_mps"], seg.extra["delta_true_rad"]
+    xi = ub.random_stiffness_trajectory(veh, len(t), dt, seed=seed, corr_time=CORR_TIME)
+    X = ub.simulate_lpv(veh, [0.0, 0.0], d, vx, xi, dt)
+    out = {"t": t, "X": X, "res": None, "m": None, "a_max": veh.max_metzler_uncertainty(),
+           "error": ""}
+    try:
+        des = IF.design(bands, veh)
+    except InfeasibleDesign as exc:
+        out["error"] = str(exc).splitlines()[0]
+        return out
+    out["res"] = iv.run_interval_observer(des, dt, vx, d, d, X[:, 1], X[0], X[0])
+    out["m"] = ev.interval_metrics(out["res"], X, t, width_t_skip=1.0)
+    return out
 
-    return w.interactive(show, rel_unc=w.FloatSlider(value=rel_unc0, min=0.02, max=0.3, step=0.02,
-                                                     description="box +-", continuous_update=False))
+
+def fig_box_band(log: DriveLog, bands: ub.SpeedBands, rel_unc: float, seed: int = 0,
+                 span: tuple[float, float] = BOX_SPAN):
+    """Live figure of the stiffness box (:func:`box_band_run`): the ``v_y`` interval against
+    the LPV truth and, below, the yaw-rate margins ``r^+ - r``, ``r - r^-`` on a log axis,
+    with the enclosure and mean widths in the title; fixed axes so a move of the slider
+    shows the change. 2 axes."""
+    import matplotlib.pyplot as plt
+
+    b = box_band_run(log, bands, rel_unc, seed, span)
+    t, X = b["t"], b["X"]
+    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(8.0, 4.6),
+                           gridspec_kw={"height_ratios": [1.4, 1.0]})
+    ax[0].plot(t, X[:, 0], color="k", lw=0.9, label="LPV truth $v_y$", zorder=4)
+    ax[0].set_ylim(X[:, 0].min() - 0.6, X[:, 0].max() + 0.6)
+    ax[1].set_ylim(1e-7, 1e-1)
+    ax[1].set_yscale("log")
+    if b["res"] is None:
+        ax[0].text(0.5, 0.5, f"box $\\pm${100 * rel_unc:.0f} %: no certified Theorem 2 design\n"
+                   f"(Metzler limit $a_{{max}}$ = {b['a_max']:.3f}, Exercise 1)",
+                   transform=ax[0].transAxes, ha="center", va="center", color=ev.PALETTE[4])
+        ax[0].set_title(f"stiffness box $\\pm${100 * rel_unc:.0f} % of $c_0$")
+    else:
+        res, m = b["res"], b["m"]
+        ev._band(ax[0], t, res.x_lo[:, 0], res.x_hi[:, 0], 0, "$[v_y^-, v_y^+]$")
+        ax[1].plot(t, np.maximum(res.x_hi[:, 1] - X[:, 1], 1e-9), color=ev.PALETTE[0], lw=0.8,
+                   label="$r^+ - r$")
+        ax[1].plot(t, np.maximum(X[:, 1] - res.x_lo[:, 1], 1e-9), color=ev.PALETTE[1], lw=0.8,
+                   ls="--", label="$r - r^-$")
+        ax[0].set_title(f"stiffness box $\\pm${100 * rel_unc:.0f} % of $c_0$: enclosure "
+                        f"{min(m['enclosure_vy'], m['enclosure_r']):.3f}, mean width $v_y$ "
+                        f"{m['width_mean_vy']:.3f} m/s, $r$ {m['width_mean_r']:.1e} rad/s",
+                        fontsize=9)
+    ax[0].set_ylabel("$v_y$ [m/s]")
+    ax[1].set_ylabel("margin of $r$ [rad/s]")
+    ax[1].set_xlabel("$t$ [s]")
+    for a in ax:
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def animate_convergence(lpv: dict, des: iv.IntervalDesign, start: int, horizon: float = 2.5,
+                        frames: int = 30, box0=BOX0):
+    """Animation (:func:`vehicle_observers.results.teaching.animation`) of the switched
+    observer restarted at sample ``start`` of the LPV run (``lpv``) from the box
+    ``x(t0) + box0``: the ``v_y`` and ``r`` intervals revealed over ``horizon`` s, shrinking
+    onto the truth. Returns the HTML player."""
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results import teaching
+
+    n = int(round(horizon / lpv["dt"]))
+    sl = slice(start, start + n)
+    t, X = lpv["t"][sl] - lpv["t"][start], lpv["X"][sl]
+    res = iv.run_interval_observer(des, lpv["dt"], lpv["vx"][sl], lpv["delta"][sl],
+                                   lpv["delta"][sl], X[:, 1], X[0] + box0[0], X[0] + box0[1])
+    fig, ax = plt.subplots(1, 2, figsize=(7.5, 2.8))
+    idx = teaching.frame_indices(len(t), frames)
+    polys = [None, None]
+    for c, (nm, unit) in enumerate((("v_y", "m/s"), ("r", "rad/s"))):
+        ax[c].plot(t, X[:, c], color="k", lw=1.0, label="truth")
+        ax[c].set_xlim(0, t[-1])
+        ax[c].set_ylim(X[0, c] + 1.2 * box0[0][c], X[0, c] + 1.2 * box0[1][c])
+        ax[c].set_xlabel("$t - t_0$ [s]")
+        ax[c].set_ylabel(f"${nm}$ [{unit}]")
+    ax[0].legend(loc="upper right", fontsize=7)
+    title = fig.suptitle("")
+
+    def update(i):
+        k = idx[i]
+        for c in range(2):
+            if polys[c] is not None:
+                polys[c].remove()
+            polys[c] = ax[c].fill_between(t[:k], res.x_lo[:k, c], res.x_hi[:k, c],
+                                          color=ev.PALETTE[0], alpha=0.4, lw=0)
+        title.set_text(f"$t - t_0$ = {t[k - 1]:.2f} s: width $v_y$ {res.width[k - 1, 0]:.3f} "
+                       f"m/s, $r$ {res.width[k - 1, 1]:.1e} rad/s")
+        return polys
+
+    fig.tight_layout()
+    return teaching.animation(fig, update, len(idx))

@@ -12,7 +12,8 @@ Sign slip in the printed (18) and (22): with ``theta~ = theta - theta^``,
 ``x~4' = -A x~4 + Psi(X^) theta~`` (the paper prints ``- Psi theta~``) and
 ``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``. The observer uses this
 stabilising sign; the printed sign amounts to ``P -> -P`` and drives theta^ to its
-projection bounds (notebook 05, Exercise 3). The numerical constants we use instead (vehicle,
+projection bounds (notebook 05, section "The printed sign of (18), (22)"). The numerical
+constants we use instead (vehicle,
 tyres, suspension, gains, steps) are chosen in :mod:`vehicle_observers.models.planar`,
 :mod:`vehicle_observers.models.fullcar` and :mod:`vehicle_observers.observers.sliding_mode`
 and listed with their sources there; the values this reproduction uses are collected at the
@@ -64,3 +65,7 @@ sensor_noise = (0.02, 0.02, 0.002, 0.05, 0.05)  # std of [vx, vy, r, w_f, w_r] (
 #: the printed adaptation (20)-(22) adapts all 8 entries of theta; the default
 #: ``force_gains`` adapts only the F0/sigma entries
 P_FULL = (5.0,) * 8
+#: the paper's configuration of observer (10): sign() switching (10) and the printed
+#: adaptation law (20)-(22) on all 8 entries of theta; every paper claim of Part A is graded
+#: on it (the boundary layer and the F0/sigma-only adaptation are variants beside it)
+paper_gains = force_gains.with_(mode=0, P=P_FULL)

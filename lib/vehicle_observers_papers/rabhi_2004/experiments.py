@@ -104,7 +104,7 @@ def part_a_run(man, Xs, gains=None, errors=None, noise=None, seed: int = 0,
     res = _smo.ForceObserver(model, gains, dt).run(t, man.U, Y, initial_estimate(Xs))
     F = Xs[:, 8:12]
     m = t >= t_skip
-    out = {"t": t, "Y": Y, "F": F, "res": res, "model": model}
+    out = {"t": t, "Y": Y, "F": F, "res": res, "model": model, "gains": gains}
     peak = np.max(np.abs(F), axis=0)
     out.update(force_errors(t, res.x4, F, peak, t_skip, FORCE_NAMES))
     for i, nm in enumerate(FORCE_NAMES):

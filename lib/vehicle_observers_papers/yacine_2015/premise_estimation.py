@@ -132,6 +132,10 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     ``x0`` (a deliberately wrong estimate, to exercise the decay term). ``T`` = last exit of
     the premise error from ``band_vy`` (the differentiators' convergence time in (34)).
 
+    ``max_ratio_open_loop``: the same largest ratio for the open-loop model (all ``L_i = 0``,
+    the gyro unused) against the bound of ``design``: below 1 means the bound holds even without
+    the observer's correction on this run, i.e. it proves little about the gains.
+
     ``t_informative`` [s]: the time after which the bound (45) falls below ``||e(0)||``
     (before it, (34) says less than "the error does not grow"): ``(2/alpha) ln(B0/||e0||)``
     with ``B0 = sqrt(a2/a1 ||e0||^2 + c/(alpha a1) max_[0,T] ||delta||^2 e^(alpha T))``, the
@@ -151,12 +155,20 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     dn = np.linalg.norm(dl, axis=1)
     T = T1.convergence_time(log.t, pe.vy - log.vy, band=band_vy)
     b = T1.bound_34(log.t, en[0], dn, T, design)
+    # the same bound against the open-loop model (L_i = 0, the gyro unused): if this error also
+    # stays below the bound, the bound cannot tell a designed gain from none on this run
+    ol = to.run_observer(log, replace(design, L=np.zeros_like(design.L)), pe,
+                         x0=np.asarray(x0, dtype=float))
+    _, dl_ol = T1.premise_mismatch(ts, xt, log.delta, zt, ol.z)
+    en_ol = np.linalg.norm(xt - ol.x, axis=1)
+    b_ol = T1.bound_34(log.t, en_ol[0], np.linalg.norm(dl_ol, axis=1), T, design)
     a, a1, a2 = design.alpha, design.alpha1, design.alpha2
     B0 = np.sqrt(a2 / a1 * en[0] ** 2 + design.c / (a * a1) * b["delta_max_T"] ** 2 * np.exp(a * T))
     return {"alpha": a, "t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
             "bound_paper": b["paper"], "T": T, "truth_inside_sector": inside,
             "max_ratio": float(np.max(en / b["paper"])),
             "max_ratio_iss": float(np.max(en / b["iss"])),
+            "max_ratio_open_loop": float(np.max(en_ol / b_ol["paper"])),
             "min_margin": float(np.min(b["paper"] - en)),
             "min_margin_iss": float(np.min(b["iss"] - en)),
             "delta_max_T": b["delta_max_T"], "e0": float(en[0]),
@@ -223,6 +235,18 @@ def lmi_study(alphas=(1e-3, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0), configs=None, ts=Non
     return rows
 
 
+def certificate_counts(rows: list[dict], config: str = "(33) alone") -> dict:
+    """How many rows of :func:`lmi_study` for ``config`` are ``certified``, ``inconclusive``
+    (signs right but relative margin < 1e-9 or cond(P) > 1e8: never counted as feasible) and
+    ``infeasible`` (no solution, or a violated certificate), and the largest certified alpha."""
+    rs = [r for r in rows if r["config"] == config]
+    cert = [r["alpha"] for r in rs if r.get("status") == "certified"]
+    return {"n": len(rs), "certified": len(cert),
+            "inconclusive": sum(r.get("status") == "inconclusive" for r in rs),
+            "infeasible": sum(r.get("status") not in ("certified", "inconclusive") for r in rs),
+            "max_certified_alpha": max(cert) if cert else float("nan")}
+
+
 def alpha_study(log: DriveLog, alphas=(1e-3, 0.1, 0.5, 1.0), x0=X0_WRONG,
                 band: float = 1e-3, config=None) -> list[dict]:
     """The observer for several decay parameters ``alpha`` (design ``config``, default
@@ -284,17 +308,33 @@ def mismatched_params(p=None, mismatch=None):
                    name=f"{p.name}, mismatched")
 
 
+def scaled_mismatch(fraction: float, mismatch=None) -> dict:
+    """``fraction`` of :data:`MISMATCH` (0: the paper's car, 1: the full mismatch): the relative
+    changes multiplied by ``fraction``, the relaxation length moved from the paper's ``r`` by
+    ``fraction`` of the way to the mismatched one."""
+    mm = MISMATCH if mismatch is None else mismatch
+    out = {k: fraction * v for k, v in mm.items() if k != "r"}
+    out["r"] = yacine2015.r_relax + fraction * (mm["r"] - yacine2015.r_relax)
+    return out
+
+
 def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False,
-                   noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None) -> list[dict]:
-    """Matched model (truth = the observer's car) and mismatched truth
-    (:func:`mismatched_params`) on the same emulated lap, same seed: estimation metrics
-    side by side (the observer and the premise chain keep the paper's car)."""
+                   noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None,
+                   fractions=(0.0, 1.0)) -> list[dict]:
+    """The same emulated lap, same seed, driven by cars that are ``fraction`` of the way from
+    the observer's model (0, ``truth`` "matched") to the mismatched car (1, "mismatched";
+    :func:`mismatched_params`, :func:`scaled_mismatch`): estimation metrics side by side (the
+    observer and the premise chain keep the paper's car); each row also carries ``fraction``,
+    its ``log`` and ``run`` (for :func:`fig_estimates`)."""
     rows = []
-    for name, truth in (("matched", None), ("mismatched", mismatched_params(None, mismatch))):
+    for f in fractions:
+        name = {0.0: "matched", 1.0: "mismatched"}.get(float(f), f"{f:g} x mismatch")
+        truth = None if f == 0 else mismatched_params(None, scaled_mismatch(f, mismatch))
         log = scenarios.emulated_satory(seed=seed, quick=quick, noise_scale=noise_scale,
                                         params=truth, v_max=v_max)
         run = to.run_observer(log, design)
-        rows.append({"truth": name, **estimation_metrics(log, run)})
+        rows.append({"truth": name, "fraction": float(f), **estimation_metrics(log, run),
+                     "log": log, "run": run})
     return rows
 
 
@@ -340,31 +380,48 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
     return fig
 
 
-def fig_estimates(log: DriveLog, run: to.TSRun):
+def fig_estimates(log: DriveLog, run: to.TSRun, mismatched=None, t_settle: float = T_SETTLE):
     """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
-    with an error panel (truth and estimate overlap at this scale)."""
-    t = log.t
-    rows = [(r"$v_y$ [m/s]", log.vy, run.vy, run.premises.vy),
-            (r"$F_f$ [N]", log.Ff, run.Ff, None), (r"$F_r$ [N]", log.Fr, run.Fr, None)]
+    with an error panel (truth and estimate overlap at this scale; error axes scaled on
+    ``t > t_settle``, after the start transient). ``mismatched``: ``(log, run)`` of the same lap
+    driven by a car that is not the observer's model, drawn as a second column (same axes)."""
+    cols = [("truth = the observer's model", log, run)]
+    if mismatched is not None:
+        cols.append(("mismatched car (tyres, mass, inertia, relaxation)", *mismatched))
+    nc = len(cols)
     with plt.style.context(STYLE):
-        fig, axes = plt.subplots(6, 1, sharex=True, figsize=(10, 9.5),
-                                 gridspec_kw={"height_ratios": [2, 1] * 3})
-        for k, (lab, truth, est, prem) in enumerate(rows):
-            ax, ae = axes[2 * k], axes[2 * k + 1]
-            tt, yt, ye = decimate(t, truth, est)
-            ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
-            if prem is not None:
-                tp, yp, ep = decimate(t, prem, prem - truth)
-                ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
-                ae.plot(tp, ep, c="C1", lw=0.6, label="premise (26)")
-            ax.plot(tt, ye, c="k", ls="--", label="TS observer (31)" + ("+(46)" if k else ""))
-            ae.plot(tt, ye - yt, c="k", lw=0.7, label="observer")
-            ax.set_ylabel(lab)
-            ae.set_ylabel("error " + lab.split(" ")[1])
-            ax.legend(loc="upper right", fontsize=7)
-            ae.legend(loc="upper right", fontsize=7)
-        axes[-1].set_xlabel("$t$ [s]")
-        fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run)")
+        fig, axes = plt.subplots(6, nc, sharex=True, sharey="row", figsize=(6.2 * nc + 1, 9.5),
+                                 gridspec_kw={"height_ratios": [2, 1] * 3}, squeeze=False)
+        for j, (title, lg, rn) in enumerate(cols):
+            rows = [(r"$v_y$ [m/s]", lg.vy, rn.vy, rn.premises.vy),
+                    (r"$F_f$ [N]", lg.Ff, rn.Ff, None), (r"$F_r$ [N]", lg.Fr, rn.Fr, None)]
+            late = lg.t - lg.t[0] > t_settle
+            for k, (lab, truth, est, prem) in enumerate(rows):
+                ax, ae = axes[2 * k, j], axes[2 * k + 1, j]
+                tt, yt, ye = decimate(lg.t, truth, est)
+                ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
+                lim = np.abs(est - truth)[late].max()
+                if prem is not None:
+                    tp, yp, ep = decimate(lg.t, prem, prem - truth)
+                    ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
+                    ae.plot(tp, ep, c="C1", lw=0.6)
+                    lim = max(lim, np.abs(prem - truth)[late].max())
+                ax.plot(tt, ye, c="k", ls="--", lw=0.9, label="TS observer (31), forces (46)")
+                ae.plot(tt, ye - yt, c="k", lw=0.7)
+                ae.axhline(0, c="0.6", lw=0.5)
+                if j == 0:
+                    ax.set_ylabel(lab)
+                    ae.set_ylabel("error " + lab.split(" ")[1])
+                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
+                elif 1.1 * lim > ae.get_ylim()[1]:
+                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
+            axes[0, j].set_title(title, fontsize=10)
+            axes[-1, j].set_xlabel("$t$ [s]")
+        h, lab = axes[0, 0].get_legend_handles_labels()
+        axes[-1, 0].legend(h, lab, loc="upper left", bbox_to_anchor=(0.0, -0.55), ncol=3,
+                           fontsize=8, frameon=False)
+        fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run); "
+                     f"error axes scaled on $t > {t_settle:g}$ s")
     return fig
 
 
@@ -434,6 +491,84 @@ def fig_hosmd(sc: dict):
             a.legend(loc="lower right", fontsize=7)
         fig.suptitle("Levant differentiator $n = 3$ on $f = \\sin t$: accuracy exponents")
     return fig
+
+
+def fig_hosmd_live(log10_L: float = 0.0, log10_noise: float = -5.0, seed: int = 0,
+                   tau: float = 1e-3, horizon: float = 12.0):
+    """The live figure of notebook 02: Levant n = 3 with bound ``L = 10**log10_L`` on
+    ``f = sin t`` plus uniform noise of amplitude ``10**log10_noise``: ``z_1`` against
+    ``f' = cos t`` and ``|z_1 - cos t|`` (log scale)."""
+    t = np.arange(0.0, horizon, tau)
+    f = np.sin(t) + 10**log10_noise * np.random.default_rng(seed).uniform(-1, 1, len(t))
+    Z = levant_differentiator(f, tau, 3, 10**log10_L)
+    with plt.style.context(STYLE):
+        fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 4.2))
+        a.plot(t, np.cos(t), c="0.6", lw=2.2, label=r"$f'(t) = \cos t$")
+        a.plot(t, Z[:, 1], "k--", lw=0.9, label="HOSMD $z_1$")
+        a.set_ylim(-2, 2)
+        a.set_ylabel(r"$f'$ [1/s]")
+        a.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        b.semilogy(t, np.abs(Z[:, 1] - np.cos(t)) + 1e-12, c="k", lw=0.6)
+        b.set_ylim(1e-8, 10)
+        b.set_ylabel(r"$|z_1 - f'|$ [1/s]")
+        b.set_xlabel("$t$ [s]")
+        a.set_title(f"$L$ = {10**log10_L:.3g}, noise $\\varepsilon$ = {10**log10_noise:.1e}",
+                    fontsize=10)
+        fig.tight_layout()
+    return fig
+
+
+def convergence_animation(tc: dict, t_end: float = 2.5, frames: int = 30):
+    """Figure and frame update of the animation of notebook 02: the error norm of a
+    :func:`theory_check` result revealed up to ``t_end`` [s] beside its bound (34).
+    Returns ``(fig, update, n_frames)`` for :func:`vehicle_observers.results.teaching.animation`."""
+    from vehicle_observers.results.teaching import frame_indices
+
+    k_end = int(np.searchsorted(tc["t"], t_end))
+    tt, en, bd = tc["t"][:k_end], tc["err_norm"][:k_end], tc["bound_paper"][:k_end]
+    idx = frame_indices(len(tt), frames)
+    with plt.style.context(STYLE):
+        fig, ax = plt.subplots(figsize=(6, 3))
+        ax.set_xlim(0, tt[-1])
+        ax.set_ylim(1e-4, 3 * bd.max())
+        ax.set_yscale("log")
+        (l_e,) = ax.plot([], [], c="k", label=r"$\|e(t)\|$ simulated")
+        (l_b,) = ax.plot([], [], c="C1", lw=1.6, label=f"bound (34), $\\alpha$ = {tc['alpha']:g}")
+        ax.set_xlabel("$t$ [s]")
+        ax.set_ylabel("norm (state (12), mixed units)")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        fig.tight_layout()
+
+    def update(i):
+        l_e.set_data(tt[: idx[i]], en[: idx[i]])
+        l_b.set_data(tt[: idx[i]], bd[: idx[i]])
+
+    return fig, update, len(idx)
+
+
+#: readable column headings (with units) of the notebook's tables, by row key
+LABELS = {"alpha": "alpha [1/s]", "config": "LMI problem", "feasible": "solver found a solution",
+          "c": "ISS gain c", "P_condition": "cond(P)", "xi_min_relative": "relative margin of (33)",
+          "status": "certificate", "pole_dt": "|pole| x Ts", "lmi": "violated LMI",
+          "violation": "violation (largest eigenvalue)", "truth": "truth",
+          "rmse_vy": "RMSE v_y observer [m/s]", "rmse_vy_premise": "RMSE v_y premise (26) [m/s]",
+          "ratio_vy": "observer / premise", "rmse_Ff": "RMSE F_f [N]", "rmse_Fr": "RMSE F_r [N]",
+          "rmse_rho": "RMSE rho [1/m]", "max_rho": "max |rho error| [1/m]",
+          "clipped_slip_fraction": "slip premises clipped (fraction)",
+          "clipped_vx_fraction": "v_x premise clipped (fraction)", "noise_scale": "noise std x",
+          "vision_rate_hz": "camera [Hz] (None: 1 kHz)", "T": "T [s]", "horizon": "horizon [s]",
+          "max_ratio": "max ||e|| / (34)", "max_ratio_iss": "max ||e|| / ISS (40)",
+          "bound_end": "(34) at the end", "err_after_5s": "max ||e|| after 5 s",
+          "t_informative": "(45) < ||e(0)|| after [s]", "T_settle_vy": "v_y within 1e-3 m/s after [s]"}
+
+
+def table(rows: list[dict], keys, title: str = ""):
+    """``show_table`` of ``rows`` restricted to ``keys``, headed by :data:`LABELS`."""
+    from vehicle_observers.results.tables import show_table
+
+    lab = [LABELS.get(k, k) for k in keys]
+    return show_table([{lb: r.get(k) for k, lb in zip(keys, lab, strict=True)} for r in rows], lab,
+                      title=title)
 
 
 def columns(rows: list[dict], keys=None, digits: int = 4) -> dict:

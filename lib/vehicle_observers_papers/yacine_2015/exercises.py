@@ -1,0 +1,173 @@
+"""Exercise checkers of notebook 02 (Yacine et al., IEEE TCST 23(2), 2015).
+
+Each ``check_N(answer)`` computes the expected answer **independently** of the notebook's
+solution cell (a library call or a second route), calls the student's function on more than
+one input (so a hard-coded number fails) and shows one line through
+:func:`vehicle_observers.results.teaching.check` (``correct`` / ``not yet`` with a hint /
+``not attempted`` while the stub still returns ``...``).
+
+1. one step of Levant's differentiator (HOSMD, n = 3) against the compiled library loop;
+2. the sector bounds (17) of the premise ``f_i = F_i^S(alpha_i) / alpha_i`` (16) of a tyre;
+3. a decay-rate LMI (the core of (33), one vertex, no premise error) solved with cvxpy and
+   certified by eigenvalues;
+4. the time after which the bound (45) falls below ``||e(0)||``, closed form against the
+   bound evaluated by :func:`..theorem1.bound_34`.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+from vehicle_observers.design.lmi import Certificate, check_matrix
+from vehicle_observers.observers.differentiators import LEVANT_LAMBDA, levant_differentiator
+from vehicle_observers.results.teaching import check
+
+from vehicle_observers_papers.yacine_2015 import constants as Y
+from vehicle_observers_papers.yacine_2015 import theorem1 as T1
+from vehicle_observers_papers.yacine_2015.premise_estimation import mismatched_params
+
+_EMPTY = (None, Ellipsis)
+
+
+def _signals():
+    """Two test signals of the differentiator exercise: (name, samples, step, L)."""
+    t = np.arange(0.0, 3.0, 1e-3)
+    return [("sin t", np.sin(t), 1e-3, 1.0),
+            ("a noisy chirp", np.sin(2 * t + 0.3 * t**2)
+             + 1e-4 * np.random.default_rng(2).uniform(-1, 1, len(t)), 1e-3, 200.0)]
+
+
+def check_1(levant_step, show: bool = True):
+    """Exercise 02.1: ``levant_step(z, f_k, tau, L)`` -> ``z`` at the next sample, for ``n = 3``
+    (Levant 2003 recursive form, gains :data:`LEVANT_LAMBDA`, Taylor-augmented explicit Euler
+    of Livne & Levant 2014). Run over two signals from ``z = (f_0, 0, 0, 0)`` and compared with
+    :func:`levant_differentiator` (the library's compiled loop) at every sample."""
+    def answer():
+        out = {}
+        for name, f, tau, L in _signals():
+            z = np.array([f[0], 0.0, 0.0, 0.0])
+            Z = np.empty((len(f), 4))
+            for k in range(len(f)):
+                Z[k] = z
+                z = levant_step(z.copy(), float(f[k]), tau, L)
+                if z is None or z is Ellipsis:
+                    return None
+                z = np.asarray(z, dtype=float).reshape(4)
+            out[name] = Z
+        return out
+
+    expected = {name: levant_differentiator(f, tau, 3, L) for name, f, tau, L in _signals()}
+    return check("02.1", answer, expected, rtol=1e-9, atol=1e-9, show=show,
+                 hint="v_i uses the previous v_{i-1} (v_{-1} = f_k), exponent (n-i)/(n-i+1) and gain "
+                      "lambda_{n-i} L^{1/(n-i+1)}; then z_i += tau v_i + sum_{l>=2} tau^l/l! z_{i+l}, "
+                      "all v_i computed from the old z before any z_i changes")
+
+
+def check_2(sector, show: bool = True):
+    """Exercise 02.2: ``sector(tire, alpha_max)`` -> ``(f_min, f_max)`` [N/rad] of the secant
+    stiffness ``F(alpha)/alpha`` (16) over ``|alpha| <= alpha_max`` [rad]. Three cases: the
+    paper's front and rear tyres at 8 deg (the answer is the printed sector (17)) and the
+    mismatched front tyre of section 7 at 5 deg; expected from ``Pacejka.sector_bounds``."""
+    mm = mismatched_params()
+    cases = {"front, 8 deg": (Y.tire_f, np.radians(8.0)), "rear, 8 deg": (Y.tire_r, np.radians(8.0)),
+             "mismatched front, 5 deg": (mm.tire_f, np.radians(5.0))}
+
+    def answer():
+        out = {}
+        for k, (tire, amax) in cases.items():
+            got = sector(tire, amax)
+            if got is None or got is Ellipsis:
+                return None
+            out[k] = np.asarray(got, dtype=float)
+        return out
+
+    expected = {k: np.array(tire.sector_bounds(amax)) for k, (tire, amax) in cases.items()}
+    return check("02.2", answer, expected, rtol=1e-4, show=show,
+                 hint="f(alpha) = tire.force(alpha) / alpha on a grid of |alpha| <= alpha_max that "
+                      "avoids alpha = 0 (its limit there is B C D, the largest value); return (min, max)")
+
+
+#: the systems of exercise 3: (name, A, C, alpha)
+SYSTEMS_3 = (
+    ("lightly damped oscillator", np.array([[0.0, 1.0], [-4.0, -0.2]]), np.array([[1.0, 0.0]]), 1.0),
+    ("unstable chain", np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.5, -1.0, 0.3]]),
+     np.array([[1.0, 0.0, 0.0]]), 2.0),
+)
+
+
+def certify_decay(A, C, alpha, P, L) -> dict:
+    """Eigenvalue certificate of ``A^T P + P A - P L C - C^T L^T P + alpha P < 0``, ``P > 0``
+    (:class:`~vehicle_observers.design.lmi.Certificate`: "certified", "inconclusive" or
+    "violated") and whether the spectral abscissa of ``A - L C`` is below ``-alpha/2``."""
+    A, C, P, L = (np.asarray(v, dtype=float) for v in (A, C, P, L))
+    Phi = A - L.reshape(A.shape[0], C.shape[0]) @ C
+    cert = Certificate([check_matrix("P", P, "pos"),
+                        check_matrix("Xi", Phi.T @ P + P @ Phi + alpha * P, "neg")])
+    return {"status": cert.status, "decays": bool(np.linalg.eigvals(Phi).real.max() < -alpha / 2)}
+
+
+def check_3(decay_gain, show: bool = True):
+    """Exercise 02.3: ``decay_gain(A, C, alpha)`` -> ``(P, L)`` with ``P > 0`` and
+    ``(A - L C)^T P + P (A - L C) + alpha P < 0`` (the vertex LMI of (33) without the premise
+    error, ``M = P L``), solved with cvxpy. Graded on the two :data:`SYSTEMS_3` by an
+    independent eigenvalue certificate (:func:`certify_decay`): expected "certified" (not only
+    the right signs: relative margin >= 1e-9, cond(P) <= 1e8) and a decay faster than alpha/2."""
+    def answer():
+        out = {}
+        for name, A, C, alpha in SYSTEMS_3:
+            got = decay_gain(A.copy(), C.copy(), alpha)
+            if got is None or got is Ellipsis or any(g is None or g is Ellipsis for g in got):
+                return None
+            out[name] = certify_decay(A, C, alpha, *got)
+        return out
+
+    expected = {name: {"status": "certified", "decays": True} for name, *_ in SYSTEMS_3}
+    return check("02.3", answer, expected, show=show,
+                 hint="variables P (symmetric) and M = P L; constraint A^T P + P A - M C - C^T M^T "
+                      "+ alpha P << -eps I and P >> I; then L = solve(P, M); an 'inconclusive' status "
+                      "means margins below the solver's accuracy: add a margin eps or bound P")
+
+
+#: the cases of exercise 4: (alpha, c, alpha1, alpha2, ||e0||, max_[0,T] ||delta||, T)
+#: (the notebook's paper-alpha-like case, one where the delta term matters, one ending at T)
+CASES_4 = ((0.5, 0.04, 1.0, 4.0e5, 2.9, 0.01, 25.0),
+           (0.5, 0.5, 1.0, 10.0, 1.0, 0.5, 3.0),
+           (1.0, 0.5, 1.0, 10.0, 1.0, 0.5, 8.0))
+
+
+def _t_informative_numeric(alpha, c, a1, a2, e0, dmax, T, dt=1e-3):
+    """First time the bound (34)/(45) (:func:`..theorem1.bound_34`, with ``||delta|| = dmax``
+    on ``[0, T]`` and 0 after) is below ``||e0||`` after ``T``: a second route, by search."""
+    design = SimpleNamespace(alpha=alpha, c=c, alpha1=a1, alpha2=a2)
+    horizon = 2.0 * T + 10.0 / alpha
+    while True:                     # lengthen the horizon until the bound crosses ||e0||
+        t = np.arange(0.0, horizon, dt)
+        b = T1.bound_34(t, e0, np.where(t <= T, dmax, 0.0), T, design)["paper"]
+        k = np.flatnonzero((t >= T) & (b < e0))
+        if len(k):
+            return float(t[k[0]])
+        horizon *= 2
+
+
+def check_4(t_informative, show: bool = True):
+    """Exercise 02.4: ``t_informative(alpha, c, a1, a2, e0, dmax, T)`` [s], the time after
+    which (45) is below ``||e(0)||`` (not before ``T``), against a search on the bound itself
+    (:func:`..theorem1.bound_34`) for three cases."""
+    def answer():
+        out = []
+        for case in CASES_4:
+            v = t_informative(*case)
+            if v is None or v is Ellipsis:
+                return None
+            out.append(float(v))
+        return out
+
+    expected = [_t_informative_numeric(*case) for case in CASES_4]
+    return check("02.4", answer, expected, rtol=0, atol=2e-3, show=show,
+                 hint="after T, (45) is B0 e^{-alpha t/2} with B0^2 = a2/a1 e0^2 + c/(alpha a1) dmax^2 "
+                      "e^{alpha T}; solve B0 e^{-alpha t/2} = e0 for t, and take max(T, that)")
+
+
+__all__ = ["check_1", "check_2", "check_3", "check_4", "certify_decay", "SYSTEMS_3", "CASES_4",
+           "LEVANT_LAMBDA"]
