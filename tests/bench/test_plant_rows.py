@@ -64,8 +64,15 @@ def test_fig_plant_draws_one_bar_per_row():
             {"dataset": "plant_b", "observer": "open-loop-linear", "rmse_vy": 0.2},
             {"dataset": "plant_b", "observer": "ekf", "rmse_vy": 0.3}]
     fig = figures.fig_plant(rows)
-    heights = sorted(p.get_height() for p in fig.axes[0].patches)
-    assert heights == pytest.approx([0.05, 0.1, 0.2, 0.3])
+    assert [a.get_title() for a in fig.axes] == ["a", "b"]          # one panel per manoeuvre
+    for ax, want in zip(fig.axes, ({"open-loop-linear": 0.1, "ekf": 0.05},
+                                   {"open-loop-linear": 0.2, "ekf": 0.3})):
+        names = [t.get_text() for t in ax.get_xticklabels()]
+        got = dict(zip(names, (p.get_height() for p in ax.patches)))
+        assert got == pytest.approx(want)
+        # the target line: 0.8 x the open-loop RMSE of this manoeuvre
+        (line,) = [ln for ln in ax.get_lines() if ln.get_linestyle() == ":"]
+        assert line.get_ydata()[0] == pytest.approx(0.8 * want["open-loop-linear"])
 
 
 def test_rts_target_explanation_is_computed():
