@@ -139,6 +139,23 @@ def test_pipeline_reports_failing_notebook_and_cell(tmp_path, monkeypatch, capsy
     assert (tmp_path / "b" / "99_broken.ipynb").exists()  # executed copy kept
 
 
+def test_pipeline_runs_notebooks_in_parallel_and_reports_each_failure(tmp_path, monkeypatch, capsys):
+    good = write_notebook(tmp_path / "01_good.ipynb", [
+        ("params", "seed = 0\nquick = False\nfigures_dir = '.'"),
+        ("code", "from pathlib import Path\np = Path(figures_dir) / 'good'\np.mkdir(parents=True)\n"
+                 "(p / 'seed.txt').write_text(str(seed))")])
+    bad = write_notebook(tmp_path / "02_bad.ipynb", [
+        ("params", "seed = 0\nquick = False\nfigures_dir = '.'"), ("code", "1 / 0")])
+    monkeypatch.setattr(pipeline, "notebooks", lambda root=None: [good, bad])
+    rc = pipeline.main(["--figures", str(tmp_path / "f"), "--build", str(tmp_path / "b"),
+                        "--quick", "--seed", "7", "--jobs", "2"])
+    out = capsys.readouterr()
+    assert rc == 1
+    assert "02_bad.ipynb" in out.err and "ZeroDivisionError" in out.err and "01_good" not in out.err
+    assert (tmp_path / "f" / "good" / "seed.txt").read_text() == "7"   # the other one still ran
+    assert pipeline.main(["--jobs", "0"]) == 2
+
+
 #: what the opening cells of every notebook tell a student (the course's learning path)
 LESSON_HEAD = ("what you will learn", "prerequisites", "reading time", "run time")
 

@@ -227,6 +227,22 @@ def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -
     return out
 
 
+def _run_one(job) -> tuple[float, str | None]:
+    """Run one notebook (a worker of :func:`main`): ``(seconds, None)``, or ``(seconds, "cell
+    N: Error: message")`` when a cell fails (papermill's error reduced to a picklable line)."""
+    nb, out, figures, seed, quick, timeout, kernel = job
+    t0 = time.perf_counter()
+    try:
+        run_notebook(nb, out, figures, seed=seed, quick=quick, timeout=timeout, kernel=kernel)
+    except Exception as exc:  # papermill wraps cell errors; report the cell
+        cell = getattr(exc, "cell_index", None)
+        ename = getattr(exc, "ename", type(exc).__name__)
+        evalue = getattr(exc, "evalue", str(exc))
+        where = f"cell {cell}" if cell is not None else "execution"
+        return time.perf_counter() - t0, f"{where}: {ename}: {evalue}"
+    return time.perf_counter() - t0, None
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[1])
     ap.add_argument("--quick", action="store_true", help="short horizons (tests)")
@@ -236,8 +252,10 @@ def main(argv=None) -> int:
     ap.add_argument("--build", default="build/notebooks")
     ap.add_argument("--timeout", type=int, default=1200, help="per-cell timeout [s]")
     ap.add_argument("--html", default="", help="also render the executed copies to HTML here")
+    ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
+                    help="notebooks run at once, each in its own kernel (default: 2, or 1 on one "
+                         "core); the results do not depend on it")
     args = ap.parse_args(argv)
-    from tqdm import tqdm
 
     root = repo_root()
     figures = (root / args.figures) if not Path(args.figures).is_absolute() else Path(args.figures)
@@ -250,26 +268,31 @@ def main(argv=None) -> int:
         print("no notebooks selected", file=sys.stderr)
         return 2
     kernel = kernel_name()
-    times = {}
-    bar = tqdm(nbs, unit="notebook", file=sys.stdout)
-    for nb in bar:
-        bar.set_description(nb.stem)
-        out = build / nb.name
-        t0 = time.perf_counter()
-        try:
-            run_notebook(nb, out, figures, seed=args.seed, quick=args.quick,
-                         timeout=args.timeout, kernel=kernel)
-        except Exception as exc:  # papermill wraps cell errors; report and stop
-            cell = getattr(exc, "cell_index", None)
-            ename = getattr(exc, "ename", type(exc).__name__)
-            evalue = getattr(exc, "evalue", str(exc))
-            where = f"cell {cell}" if cell is not None else "execution"
-            bar.close()
-            print(f"\nFAILED: notebook {nb.name}, {where}: {ename}: {evalue}\n"
-                  f"executed copy kept at {out}", file=sys.stderr)
-            return 1
-        times[nb.stem] = time.perf_counter() - t0
-    bar.close()
+    if args.jobs < 1:
+        print(f"--jobs must be >= 1, got {args.jobs}", file=sys.stderr)
+        return 2
+    jobs = [(nb, build / nb.name, figures, args.seed, args.quick, args.timeout, kernel) for nb in nbs]
+    if args.jobs == 1 or len(nbs) == 1:
+        results = map(_run_one, jobs)
+    else:
+        from concurrent.futures import ProcessPoolExecutor
+        from multiprocessing import get_context
+
+        pool = ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn"))
+        results = pool.map(_run_one, jobs)
+    times, failed = {}, []
+    for nb, (seconds, error) in zip(nbs, results):
+        if error:
+            failed.append(f"FAILED: notebook {nb.name}, {error}\nexecuted copy kept at {build / nb.name}")
+            print(f"  {nb.stem:<32} FAILED", flush=True)
+        else:
+            times[nb.stem] = seconds
+            print(f"  {nb.stem:<32} done ({len(times) + len(failed)}/{len(nbs)})", flush=True)
+    if args.jobs > 1 and len(nbs) > 1:
+        pool.shutdown()
+    if failed:
+        print("\n" + "\n".join(failed), file=sys.stderr)
+        return 1
     if args.html:
         html = Path(args.html) if Path(args.html).is_absolute() else root / args.html
         for p in write_html([build / nb.name for nb in nbs], html):

@@ -255,13 +255,20 @@ def tradeoff_names(scales=(1, 10)) -> list[str]:
             for q in ("rmse", "chatter")]
 
 
-def tradeoff_table(rows: list[dict]) -> str:
-    """Text table of :func:`tradeoff_study` rows (RMSE and chattering per force, N)."""
-    head = f"{'meas':6s} {'mode':14s} " + " ".join(f"rmse_{n:>4s}" for n in R.FORCE_NAMES) \
-        + "  " + " ".join(f"chat_{n:>4s}" for n in R.FORCE_NAMES)
-    lines = [f"{r['meas']:6s} {r['mode']:14s} " + " ".join(f"{v:9.1f}" for v in r["rmse"]) + "  "
-             + " ".join(f"{v:9.1f}" for v in r["chatter"]) for r in rows]
-    return "\n".join([head, *lines])
+def tradeoff_table(rows: list[dict]):
+    """Table of :func:`tradeoff_study` rows: RMSE and chattering (std of the step-to-step
+    change) per force, in N, with readable headings (HTML in a notebook, text elsewhere)."""
+    from vehicle_observers.results.tables import show_table
+
+    sub = {"Fxf": "xf", "Fxr": "xr", "Fyf": "yf", "Fyr": "yr"}
+    out = []
+    for r in rows:
+        row = {"measurements": r["meas"], "observer": r["mode"]}
+        row.update({f"RMSE F_{sub[n]} [N]": v for n, v in zip(R.FORCE_NAMES, r["rmse"])})
+        row.update({f"chattering F_{sub[n]} [N]": v for n, v in zip(R.FORCE_NAMES, r["chatter"])})
+        out.append(row)
+    return show_table(out, digits=3,
+                      title="force RMSE and chattering (std of the step-to-step change of the estimate)")
 
 
 def paper_config_study(man, Xs, seed: int = 0, cases=ROBUST_CASES_A) -> dict:
