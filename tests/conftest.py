@@ -26,7 +26,7 @@ def execute_notebook(name: str, tmp_path: Path, seed: int = 0) -> dict:
     nb = ROOT / "notebooks" / f"{name}.ipynb"
     assert nb.exists(), f"missing notebook {nb}"
     figs = tmp_path / "figures"
-    run_notebook(nb, tmp_path / "build" / nb.name, figs, seed=seed, quick=True, timeout=900)
+    run_notebook(nb, tmp_path / "build" / nb.name, figs, seed=seed, quick=True, timeout=300)
     m = load_metrics(figs / name / "metrics.json")
     m["_dir"] = figs / name
     m["_executed"] = tmp_path / "build" / nb.name

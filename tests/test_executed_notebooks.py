@@ -313,6 +313,24 @@ def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
 
 @pytest.mark.notebook
 @pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
+def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
+    """Every saved figure passes :func:`vehicle_observers.results.plotting.label_problems`
+    (checked by ``Report.savefig`` on the figure itself, written by ``Report.write`` to
+    ``build/figure_checks/<notebook>.json`` together with metrics.json)."""
+    m = run_notebook(name)
+    checks = ROOT / "build" / "figure_checks" / f"{name}.json"
+    if not saved_figures(m["_dir"] / "metrics.json"):
+        pytest.skip(f"{name} saves no figure")
+    assert checks.exists(), f"{name}: no {checks} written by the run"
+    assert abs(checks.stat().st_mtime - (m["_dir"] / "metrics.json").stat().st_mtime) < 60, \
+        f"{checks} is not from this run"
+    problems = [f"{fig}: {p}" for fig, ps in json.loads(checks.read_text())["problems"].items()
+                for p in ps]
+    assert not problems, f"{name}: " + "; ".join(problems)
+
+
+@pytest.mark.notebook
+@pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
 def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
     """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
     m = run_notebook(name)

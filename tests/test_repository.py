@@ -4,6 +4,7 @@ executed by a test, every file in figures/ produced by a notebook."""
 import ast
 import json
 import re
+from pathlib import Path
 
 import nbformat
 import pytest
@@ -181,3 +182,25 @@ def test_notebook_opens_as_a_lesson_and_keeps_the_bookkeeping_last(nb):
     assert len(heads) == 1, f"{nb.name}: {len(heads)} 'Reproduction' section headings (want one)"
     early = [i for i in claims if i < heads[0]]
     assert not early, f"{nb.name}: claim bookkeeping in cells {early}, before the Reproduction section"
+
+
+def _own_kernel(args):
+    """Worker of the test below: run a one-cell notebook, return what its kernel printed."""
+    i, tmp = args
+    nb = write_notebook(Path(tmp) / f"k{i}.ipynb", [
+        ("params", "seed = 0\nquick = True\nfigures_dir = None"), ("code", f"print({i})")])
+    pipeline.run_notebook(nb, Path(tmp) / f"k{i}_out.ipynb", Path(tmp) / "f")
+    return nbformat.read(str(Path(tmp) / f"k{i}_out.ipynb"), as_version=4).cells[-1].outputs[0].text
+
+
+def test_kernels_started_together_each_answer_their_own_client(tmp_path):
+    """Four notebooks started at once in four processes (as the pipeline's --jobs and the test
+    workers do) each get their own kernel's answer: the kernels talk over socket files with a
+    random prefix (``pipeline.ipc_kernel_manager``), which cannot collide as TCP ports can."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    with ProcessPoolExecutor(4, mp_context=get_context("spawn")) as ex:
+        out = list(ex.map(_own_kernel, [(i, str(tmp_path)) for i in range(4)]))
+    assert [o.strip() for o in out] == ["0", "1", "2", "3"]
+    assert pipeline.ipc_kernel_manager()().transport == "ipc"

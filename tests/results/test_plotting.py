@@ -54,3 +54,67 @@ def test_grouped_bars_positions_heights_and_colours():
     assert [t.get_text() for t in ax.get_xticklabels()] == ["a", "b"]
     assert ax.get_xticks() == pytest.approx([0.2, 1.2])
     plt.close(fig)
+
+
+def _drawn(fig):
+    fig.canvas.draw()
+    return fig
+
+
+def test_label_problems_wants_a_unit_on_every_axis_with_numbers():
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results.plotting import label_problems
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    assert label_problems(_drawn(fig)) == ["panel 0: no x label", "panel 0: no y label"]
+    ax.set_xlabel("$t$ [s]")
+    ax.set_ylabel("$v_y$")
+    assert label_problems(_drawn(fig)) == ["panel 0: y label '$v_y$' has no unit in brackets"]
+    ax.set_ylabel("$v_y$ [m/s]")
+    assert label_problems(_drawn(fig)) == []
+    plt.close(fig)
+
+
+def test_label_problems_accepts_shared_axes_and_word_ticks():
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results.plotting import label_problems
+
+    fig, (a, b) = plt.subplots(2, 1, sharex=True)
+    a.plot([0, 1], [0, 1])
+    b.plot([0, 1], [1, 0])
+    a.set_ylabel("$r$ [rad/s]")
+    b.set_ylabel("error [-]")
+    b.set_xlabel("$t$ [s]")                  # the upper panel shares it
+    assert label_problems(_drawn(fig)) == []
+    plt.close(fig)
+    fig, ax = plt.subplots()
+    ax.bar(["ekf", "ukf"], [0.1, 0.2])
+    ax.set_ylabel("RMSE [m/s]")               # estimator names need no unit
+    assert label_problems(_drawn(fig)) == []
+    plt.close(fig)
+
+
+def test_label_problems_accepts_a_zoom_panel_beside_its_labelled_panel_only():
+    import matplotlib.pyplot as plt
+    from vehicle_observers.results.plotting import label_problems
+
+    fig, (a, b) = plt.subplots(1, 2)
+    for ax in (a, b):
+        ax.plot([0, 1], [0, 1])
+        ax.set_xlabel("$t$ [s]")
+    b.set_ylabel("$v_y$ [m/s]")               # the label on the right panel does not cover the left
+    assert label_problems(_drawn(fig)) == ["panel 0: no y label"]
+    a.set_ylabel("$v_y$ [m/s]")
+    b.set_ylabel("")
+    assert label_problems(_drawn(fig)) == []
+    plt.close(fig)
+    fig, a = plt.subplots()
+    im = a.imshow([[0, 1], [1, 0]])
+    a.set_xlabel("error [%]")
+    a.set_ylabel("speed [m/s]")
+    cb = fig.colorbar(im, ax=a)                # a colour bar needs its own label
+    assert label_problems(_drawn(fig)) == ["panel 1: no y label"]
+    cb.set_label("enclosure [-]")
+    assert label_problems(_drawn(fig)) == []
+    plt.close(fig)

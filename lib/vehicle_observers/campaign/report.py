@@ -274,7 +274,8 @@ def fig_conservatism(cons: list[dict]):
                             bbox={"fc": "white", "alpha": 0.6, "lw": 0, "pad": 1})
             ax.set_title(f"{e} on {pl_}: {title}", fontsize=8)
             ax.set_xlabel("stiffness error of the vehicle file [%]")
-            fig.colorbar(im, ax=ax, shrink=0.8)
+            fig.colorbar(im, ax=ax, shrink=0.8).set_label(
+                "enclosure rate [-]" if key == "enclosure_mean" else "mean $v_y$ width [m/s]")
     return fig
 
 

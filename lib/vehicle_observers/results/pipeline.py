@@ -57,7 +57,36 @@ def run_notebook(nb: Path, out: Path, figures_dir: Path, seed: int = 0, quick: b
         parameters={"seed": int(seed), "quick": bool(quick),
                     "figures_dir": str(figures_dir.resolve())},
         kernel_name=kernel or kernel_name(), cwd=str(nb.parent), execution_timeout=timeout,
-        progress_bar=False, log_output=False, request_save_on_cell_execute=False)
+        progress_bar=False, log_output=False, request_save_on_cell_execute=False,
+        kernel_manager_class=ipc_kernel_manager())
+
+
+def ipc_kernel_manager():
+    """A kernel manager whose kernel talks over local sockets (ZeroMQ ``ipc``, files named after
+    the kernel's own connection file) instead of TCP ports. Two notebooks started at once in two
+    processes (the pipeline's ``--jobs``, the parallel test workers) each pick "free" TCP ports
+    by binding and releasing them; the other process can take the same port before the kernel
+    binds it, and the client then waits for a reply that never comes. The socket files carry a
+    random prefix in the temporary folder, so they cannot collide (and are removed with the
+    kernel)."""
+    import tempfile
+    import uuid
+
+    from jupyter_client.manager import AsyncKernelManager
+    from traitlets import default
+
+    class IPCKernelManager(AsyncKernelManager):
+        @default("transport")
+        def _transport_default(self):
+            return "ipc"
+
+        @default("ip")
+        def _ip_default(self):
+            # the socket files' prefix: unique per kernel (jupyter_client's default,
+            # "kernel-ipc" in the working directory, is shared by kernels started together)
+            return os.path.join(tempfile.gettempdir(), f"vo-kernel-{uuid.uuid4().hex[:16]}")
+
+    return IPCKernelManager
 
 
 def write_html(executed: list[Path], out_dir: Path) -> list[Path]:

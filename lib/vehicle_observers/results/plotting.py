@@ -12,6 +12,8 @@ Figures are saved through :meth:`vehicle_observers.results.reporting.Report.save
 
 from __future__ import annotations
 
+import re
+
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
@@ -122,3 +124,65 @@ def grouped_bars(ax, groups, series, value, log: bool = False, labels=None) -> f
     if log:
         ax.set_yscale("log")
     return w
+
+
+#: a unit in an axis label: ``[m/s]``, ``[-]`` for a pure number, or ``[%]``
+_UNIT = re.compile(r"\[[^\]]+\]")
+
+
+def _has_data(ax) -> bool:
+    return bool(ax.lines or ax.patches or ax.collections or ax.images)
+
+
+def _categorical(axis) -> bool:
+    """Tick labels that are words (bar charts by estimator, dataset names): no unit needed."""
+    labels = [t.get_text() for t in axis.get_ticklabels() if t.get_text()]
+    return bool(labels) and not all(re.fullmatch(r"[\s\d.,\u2212+\-−e$^{}\\mathrm×]*", t) for t in labels)
+
+
+def _labelled_neighbour(fig, ax, which: str) -> bool:
+    """A panel of the same grid row to the left (``which="y"``) or of the same grid column
+    below (``"x"``) carries the label: a zoom or a repeated panel of the same quantity."""
+    spec = ax.get_subplotspec() if hasattr(ax, "get_subplotspec") else None
+    if spec is None:
+        return False
+    for other in fig.axes:
+        o = other.get_subplotspec() if other is not ax and hasattr(other, "get_subplotspec") else None
+        if o is None or o.get_gridspec() is not spec.get_gridspec():
+            continue
+        if which == "y" and o.rowspan == spec.rowspan and o.colspan.start < spec.colspan.start \
+                and other.yaxis.get_label_text():
+            return True
+        if which == "x" and o.colspan == spec.colspan and o.rowspan.start > spec.rowspan.start \
+                and other.xaxis.get_label_text():
+            return True
+    return False
+
+
+def label_problems(fig) -> list[str]:
+    """Axis labels a reader needs, one line per problem (empty when fine): every visible panel
+    with data has an x and a y label with a unit in brackets (``[-]`` for a pure number),
+    unless the axis is categorical (word tick labels), shows no tick labels, or shares its axis
+    with a labelled panel or repeats the quantity of one (a panel to its left in the same grid
+    row, or below it in the same grid column, carries the label)."""
+    problems = []
+    for i, ax in enumerate(fig.axes):
+        if not ax.get_visible() or not ax.axison or not _has_data(ax):
+            continue
+        where = f"panel {i}" + (f" ({ax.get_title()[:40]!r})" if ax.get_title() else "")
+        for which in "xy":
+            axis = ax.xaxis if which == "x" else ax.yaxis
+            label = axis.get_label_text()
+            if _categorical(axis) or not any(t.get_visible() and t.get_text()
+                                             for t in axis.get_ticklabels()):
+                continue
+            if not label:
+                shared = (ax.get_shared_x_axes() if which == "x" else ax.get_shared_y_axes())
+                if any((s.xaxis if which == "x" else s.yaxis).get_label_text()
+                       for s in shared.get_siblings(ax) if s is not ax) or \
+                        _labelled_neighbour(fig, ax, which):
+                    continue
+                problems.append(f"{where}: no {which} label")
+            elif not _UNIT.search(label):
+                problems.append(f"{where}: {which} label {label!r} has no unit in brackets")
+    return problems

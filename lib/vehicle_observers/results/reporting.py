@@ -42,6 +42,7 @@ import numpy as np
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results import plotting  # noqa: F401  (applies the one figure style)
+from vehicle_observers.results.plotting import label_problems
 from vehicle_observers.results.rules import (
     KINDS,
     VERDICTS,
@@ -121,6 +122,9 @@ class Report:
         self.claims: list[Claim] = []
         self.files: list[str] = []
         self.timings: dict[str, dict] = {}
+        #: ``{figure: axis-label problems}`` (:func:`~vehicle_observers.results.plotting.label_problems`),
+        #: written beside the timings, never into metrics.json
+        self.figure_problems: dict[str, list[str]] = {}
 
     # ------------------------------------------------------------------ figures ----------
     def savefig(self, fig, name: str, close: bool = True):
@@ -137,6 +141,7 @@ class Report:
             fig.savefig(self.dir / fn, metadata=meta)
             if fn not in self.files:
                 self.files.append(fn)
+        self.figure_problems[name] = label_problems(fig)   # tick labels exist once drawn
         png = self.dir / f"{name}.png"
         if self.show:
             from IPython.display import Image, display
@@ -239,6 +244,12 @@ class Report:
                "metrics": self.metrics, "claims": [c.__dict__ for c in self.claims],
                "files": sorted(self.files + ["metrics.json"])}
         path.write_text(json.dumps(jsonable(doc), indent=1, sort_keys=False) + "\n")
+        if self.figure_problems:
+            fdir = repo_root() / "build" / "figure_checks"
+            fdir.mkdir(parents=True, exist_ok=True)
+            (fdir / f"{self.notebook}.json").write_text(
+                json.dumps({"notebook": self.notebook, "quick": self.quick,
+                            "problems": self.figure_problems}, indent=1) + "\n")
         if self.timings:
             tdir = repo_root() / "build" / "timings"
             tdir.mkdir(parents=True, exist_ok=True)

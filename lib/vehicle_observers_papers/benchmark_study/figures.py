@@ -257,7 +257,7 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
         a.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         a.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if v in (0.5, 2, 3) else ""))
         a.set_title(d.replace("plant_", "plant: "), fontsize=9)
-        a.set_xlabel(r"$v_y$ RMSE / open loop's")
+        a.set_xlabel(r"$v_y$ RMSE / open loop's [-]")
     axes[0][0].set_yticks(y)
     axes[0][0].set_yticklabels(obs, fontsize=8)
     axes[0][0].invert_yaxis()

@@ -279,6 +279,6 @@ def plot_gains(design: iv.IntervalDesign, L_printed=None, P_printed=None, others
     for a in ax:
         a.set_xticks(idx)
         a.set_xticklabels(labels, rotation=90, fontsize=7)
-        a.set_xlabel("mode.vertex $i.j$")
+        a.set_xlabel("mode.vertex $i.j$ [-]")
     ax[0].legend(fontsize=7)
     return fig

@@ -371,6 +371,7 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
             tt, yy = decimate(t, yv)
             ax.plot(tt, yy)
             ax.set_ylabel(lab)
+            ax.set_xlabel("$t$ [s]")
         axes[1, 1].axhline(vx_sector[1], ls=":", c="k", lw=0.8)
         axes[1, 1].legend(["measured $v_x$", r"sector $v_x^{max}$"], loc="lower center")
         axes[2, 1].axhline(8, ls=":", c="k", lw=0.8)
