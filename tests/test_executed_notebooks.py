@@ -30,6 +30,7 @@ import pytest
 from nbformat.v4 import new_code_cell, new_notebook, new_output
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results import pipeline
+from vehicle_observers.results.reporting import figure_checks_path
 
 ROOT = repo_root()
 NOTEBOOKS = [p.stem for p in pipeline.notebooks(ROOT)]
@@ -316,14 +317,13 @@ def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
 def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
     """Every saved figure passes :func:`vehicle_observers.results.plotting.label_problems`
     (checked by ``Report.savefig`` on the figure itself, written by ``Report.write`` to
-    ``build/figure_checks/<notebook>.json`` together with metrics.json)."""
+    ``reporting.figure_checks_path(<the run's figures folder>)``)."""
     m = run_notebook(name)
-    checks = ROOT / "build" / "figure_checks" / f"{name}.json"
     if not saved_figures(m["_dir"] / "metrics.json"):
         pytest.skip(f"{name} saves no figure")
+    checks = figure_checks_path(m["_dir"])
     assert checks.exists(), f"{name}: no {checks} written by the run"
-    assert abs(checks.stat().st_mtime - (m["_dir"] / "metrics.json").stat().st_mtime) < 60, \
-        f"{checks} is not from this run"
+    assert json.loads(checks.read_text())["figures_dir"] == str(Path(m["_dir"]).resolve())
     problems = [f"{fig}: {p}" for fig, ps in json.loads(checks.read_text())["problems"].items()
                 for p in ps]
     assert not problems, f"{name}: " + "; ".join(problems)

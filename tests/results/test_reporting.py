@@ -1,10 +1,17 @@
 """Report.record writes metrics, timings and claims in order; claims judged on the metrics
 recorded before them, the same call's included."""
 
-import numpy as np
-import pytest
-from vehicle_observers.core.errors import ObserverArgumentError
-from vehicle_observers.results.reporting import Report, Rule
+import json
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from vehicle_observers.core.errors import ObserverArgumentError  # noqa: E402
+from vehicle_observers.results.reporting import Report, Rule  # noqa: E402
 
 
 def test_record_metrics_and_timings(tmp_path):
@@ -62,3 +69,18 @@ def test_record_is_keyword_only(tmp_path):
     with pytest.raises(TypeError):
         rep.record({"a": (1.0, "")})
     assert rep.record() is None and rep.metrics == {} and rep.claims == []
+
+
+def test_report_records_axis_label_problems_beside_its_figures(tmp_path):
+    from vehicle_observers.results.reporting import figure_checks_path
+
+    rep = Report("99_labels", tmp_path, show=False)
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    ax.set_xlabel("$t$ [s]")
+    ax.set_ylabel("$v_y$")
+    rep.savefig(fig, "fig1")
+    rep.write()
+    doc = json.loads(figure_checks_path(tmp_path / "99_labels").read_text())
+    assert doc["problems"] == {"fig1": ["panel 0: y label '$v_y$' has no unit in brackets"]}
+    assert figure_checks_path(tmp_path / "other" / "99_labels") != figure_checks_path(tmp_path / "99_labels")

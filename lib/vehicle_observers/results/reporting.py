@@ -31,6 +31,7 @@ to build REPRODUCTION.md) and the list of files written. Files are written deter
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field
@@ -245,11 +246,11 @@ class Report:
                "files": sorted(self.files + ["metrics.json"])}
         path.write_text(json.dumps(jsonable(doc), indent=1, sort_keys=False) + "\n")
         if self.figure_problems:
-            fdir = repo_root() / "build" / "figure_checks"
-            fdir.mkdir(parents=True, exist_ok=True)
-            (fdir / f"{self.notebook}.json").write_text(
-                json.dumps({"notebook": self.notebook, "quick": self.quick,
-                            "problems": self.figure_problems}, indent=1) + "\n")
+            path = figure_checks_path(self.dir)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps({"notebook": self.notebook, "quick": self.quick,
+                                        "figures_dir": str(self.dir.resolve()),
+                                        "problems": self.figure_problems}, indent=1) + "\n")
         if self.timings:
             tdir = repo_root() / "build" / "timings"
             tdir.mkdir(parents=True, exist_ok=True)
@@ -281,6 +282,16 @@ class Report:
         from vehicle_observers.results.tables import show_table
 
         return show_table(rows, columns, digits)
+
+
+def figure_checks_path(figures_dir) -> Path:
+    """Where :meth:`Report.write` puts the axis-label problems of the figures saved in
+    ``figures_dir`` (a notebook's own folder): ``build/figure_checks/<notebook>-<hash>.json``,
+    one file per figures folder, so runs of the same notebook into other folders (the tests,
+    the browser test, the pipeline) never overwrite each other's."""
+    d = Path(figures_dir).resolve()
+    h = hashlib.sha1(str(d).encode()).hexdigest()[:12]
+    return repo_root() / "build" / "figure_checks" / f"{d.name}-{h}.json"
 
 
 def load_metrics(path) -> dict:
