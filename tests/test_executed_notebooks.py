@@ -347,7 +347,7 @@ def test_full_executed_notebook_shows_its_figures(name):
                     "`make html` first to check them)")
     nb = nbformat.read(str(executed), as_version=4)
     params = nb.metadata.get("papermill", {}).get("parameters", {})
-    current = nbformat.read(str(ROOT / "notebooks" / f"{name}.ipynb"), as_version=4)
+    current = nbformat.read(str(pipeline.notebook_path(name, ROOT)), as_version=4)
     if params.get("quick") or code_sources(nb) != code_sources(current):
         pytest.skip(f"{name}: build/notebooks/ copy is from another notebook version or quick "
                     "mode (run `make figures`)")

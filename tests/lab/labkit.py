@@ -24,6 +24,7 @@ from pathlib import Path
 from urllib.request import Request, urlopen
 
 from vehicle_observers.data.logs import repo_root
+from vehicle_observers.results import pipeline
 
 ROOT = repo_root()
 KERNEL = "vehicle-observers"
@@ -131,7 +132,7 @@ def parameterised_copies(names: list[str], dest: Path, figures_dir: Path, seed: 
     dest.mkdir(parents=True, exist_ok=True)
     out = []
     for name in names:
-        nb = load_notebook_node(str(ROOT / "notebooks" / f"{name}.ipynb"))
+        nb = load_notebook_node(str(pipeline.notebook_path(name, ROOT)))
         nb = parameterize_notebook(nb, {"seed": seed, "quick": True,
                                         "figures_dir": str(figures_dir)})
         nbformat.write(nb, str(dest / f"{name}.ipynb"))

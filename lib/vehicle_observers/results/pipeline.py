@@ -31,9 +31,49 @@ from vehicle_observers.results.rules import KINDS, VERDICTS, Rule, RuleError, di
 KERNEL = "vehicle-observers"
 
 
-def notebooks(root: Path | None = None) -> list[Path]:
+#: the three kinds of notebook of a section ``NN_name``, by where they live: the lesson
+#: ``notebooks/NN_name.ipynb`` (teaching only), its reproduction report
+#: ``notebooks/reports/NN_name_report.ipynb`` (metrics, claims, verdicts, forensics) and the
+#: worked solutions of its exercises ``notebooks/solutions/NN_name_solutions.ipynb``
+NOTEBOOK_KINDS = {"lesson": ("", "[0-9][0-9]_*.ipynb"),
+                  "report": ("reports", "[0-9][0-9]_*_report.ipynb"),
+                  "solutions": ("solutions", "[0-9][0-9]_*_solutions.ipynb")}
+
+
+def notebooks(root: Path | None = None, kinds=("lesson", "report")) -> list[Path]:
+    """The notebooks of ``kinds`` (:data:`NOTEBOOK_KINDS`), sorted by file name (a section's
+    lesson, then its report and solutions). The pipeline regenerates lessons and reports; the
+    tests also run the solutions."""
     root = root or repo_root()
-    return sorted((root / "notebooks").glob("[0-9][0-9]_*.ipynb"))
+    out = []
+    for kind in kinds:
+        folder, pattern = NOTEBOOK_KINDS[kind]
+        out += (root / "notebooks" / folder).glob(pattern)
+    return sorted(out, key=lambda p: p.name)
+
+
+def notebook_path(name: str, root: Path | None = None) -> Path:
+    """The path of the notebook whose stem is ``name`` (a lesson, a report or solutions)."""
+    root = root or repo_root()
+    for kind in ("report", "solutions"):
+        if name.endswith("_" + ("solutions" if kind == "solutions" else "report")):
+            return root / "notebooks" / NOTEBOOK_KINDS[kind][0] / f"{name}.ipynb"
+    return root / "notebooks" / f"{name}.ipynb"
+
+
+def section_of(name: str) -> str:
+    """The section ``NN_name`` of a notebook stem (``NN_name``, ``NN_name_report`` or
+    ``NN_name_solutions``): the folder ``figures/NN_name/`` its figures and metrics go to."""
+    for suffix in ("_report", "_solutions"):
+        if name.endswith(suffix):
+            return name[: -len(suffix)]
+    return name
+
+
+def notebook_kind(nb: Path) -> str:
+    """``"lesson"``, ``"report"`` or ``"solutions"`` of a notebook path."""
+    folder = nb.parent.name
+    return {"reports": "report", "solutions": "solutions"}.get(folder, "lesson")
 
 
 def kernel_name() -> str:

@@ -95,6 +95,23 @@ class Claim:
     proves_little: bool = False
     rule_def: dict = field(default_factory=dict)
     kind: str = "paper"
+    duplicate_of: str = ""
+
+
+def validate_parameters(quick, seed) -> tuple[bool, int]:
+    """The papermill parameters ``quick`` and ``seed`` of a notebook, checked: ``quick`` a
+    real boolean (or ``0``/``1``), ``seed`` a whole number; anything else raises
+    :class:`~vehicle_observers.core.errors.ObserverArgumentError` naming the parameter, so a
+    misread ``-r quick no`` or ``-p seed 1.5`` never runs with another value."""
+    if isinstance(quick, (bool, np.bool_)) or (isinstance(quick, (int, np.integer)) and quick in (0, 1)):
+        q = bool(quick)
+    else:
+        raise ObserverArgumentError(f"parameter quick must be True or False, got {quick!r} "
+                                    f"({type(quick).__name__}); with papermill use -p quick True")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise ObserverArgumentError(f"parameter seed must be a whole number, got {seed!r} "
+                                    f"({type(seed).__name__})")
+    return q, int(seed)
 
 
 def _in_kernel() -> bool:
@@ -115,8 +132,7 @@ class Report:
         base = interactive_dir() if figures_dir is None else Path(figures_dir)
         self.dir = base / notebook
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.quick = bool(quick)
-        self.seed = int(seed)
+        self.quick, self.seed = validate_parameters(quick, seed)
         self.formats = tuple(formats)
         self.show = _in_kernel() if show is None else bool(show)
         self.metrics: dict[str, dict] = {}
@@ -188,12 +204,14 @@ class Report:
 
     # ------------------------------------------------------------------ claims -----------
     def claim(self, paper: str, item: str, figure: str, metric: str, rule: Rule,
-              note: str = "", kind: str = "paper"):
+              note: str = "", kind: str = "paper", duplicate_of: str = ""):
         """Record one claim; its verdict is computed by ``rule`` (a
         :class:`~vehicle_observers.results.rules.Rule`) from the metrics recorded so far. There
         is no way to pass a verdict: it is never written by hand. ``kind``: ``"paper"`` (a
         claim printed in a paper), ``"target"``, ``"diagnostic"``, ``"baseline"`` or ``"data"``
-        (checks made beside the papers; see ``rules.KINDS``). The value is stored at 4
+        (checks made beside the papers; see ``rules.KINDS``). ``duplicate_of``
+        (``"<notebook>: <item>"``): the same claim of the same paper is graded elsewhere; the
+        row is listed with a reference to it and not counted again in the tallies. The value is stored at 4
         significant digits, more when needed to tell it from a threshold of the rule."""
         if not isinstance(rule, Rule):
             raise TypeError(f"claim {paper} {item}: rule must be a Rule (the verdict is computed "
@@ -211,7 +229,7 @@ class Report:
         self.claims.append(Claim(paper, item, figure, metric, round_sig(value, digits),
                                  rule.paper, j.verdict, note, rule.text(), j.proves_little,
                                  {k: v for k, v in asdict(rule).items() if v is not None},
-                                 kind))
+                                 kind, duplicate_of))
         return j
 
     def record(self, *, metrics: dict | None = None, claims=(), timings: dict | None = None):
@@ -242,7 +260,8 @@ class Report:
         ``None``, so that a notebook cell ending with it shows nothing."""
         path = self.metrics_path
         doc = {"notebook": self.notebook, "quick": self.quick, "seed": self.seed,
-               "metrics": self.metrics, "claims": [c.__dict__ for c in self.claims],
+               "metrics": self.metrics, "claims": [{k: v for k, v in c.__dict__.items()
+                           if k != "duplicate_of" or v} for c in self.claims],
                "files": sorted(self.files + ["metrics.json"])}
         path.write_text(json.dumps(jsonable(doc), indent=1, sort_keys=False) + "\n")
         if self.figure_problems:

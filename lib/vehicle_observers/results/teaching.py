@@ -232,3 +232,66 @@ def frame_indices(n_samples: int, frames: int) -> np.ndarray:
 def reading_time(words: int, code_cells: int) -> int:
     """Reading time [min] of a notebook: 200 words a minute plus one minute per code cell."""
     return math.ceil(words / 200 + code_cells)
+
+
+# ----------------------------------------------------------------------- lessons -------------
+
+class Lesson:
+    """The figure helper of a lesson notebook (``notebooks/NN_name.ipynb``).
+
+    A lesson teaches; it records no metric, claim or verdict (those live in the section's
+    reproduction report, ``notebooks/reports/NN_name_report.ipynb``, through
+    :class:`~vehicle_observers.results.reporting.Report`). ``Lesson`` only shows a figure
+    inline and saves it as ``<figures_dir>/<notebook>/lesson/<name>.png`` (``figures_dir=None``,
+    the default of every ``parameters`` cell: ``build/interactive/``, ignored by git), with the
+    same axis-label checks as the report's figures.
+
+    Usage::
+
+        lesson = Lesson("03_interval_observer", figures_dir, quick=quick, seed=seed)
+        lesson.savefig(fig, "band_vs_truth")
+    """
+
+    def __init__(self, notebook: str, figures_dir=None, quick: bool = False, seed: int = 0,
+                 show: bool | None = None):
+        from pathlib import Path
+
+        from vehicle_observers.results.reporting import _in_kernel, interactive_dir, validate_parameters
+
+        self.notebook = notebook
+        self.quick, self.seed = validate_parameters(quick, seed)
+        base = interactive_dir() if figures_dir is None else Path(figures_dir)
+        self.dir = base / notebook / "lesson"
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.show = _in_kernel() if show is None else bool(show)
+        #: ``{figure: axis-label problems}`` of the figures saved so far
+        self.figure_problems: dict[str, list[str]] = {}
+
+    def savefig(self, fig, name: str, close: bool = True):
+        """Save ``fig`` as ``<name>.png`` in the lesson's folder and show it inline. Returns
+        ``None`` so that a cell ending with it prints nothing."""
+        import json
+
+        import matplotlib.pyplot as plt
+
+        from vehicle_observers.results.plotting import label_problems
+        from vehicle_observers.results.reporting import figure_checks_path
+
+        if "/" in name or "." in name:
+            raise ValueError(f"figure name {name!r}: no extension or folder, e.g. 'band_vs_truth'")
+        fig.tight_layout()
+        png = self.dir / f"{name}.png"
+        fig.savefig(png, metadata={"Software": None})
+        self.figure_problems[name] = label_problems(fig)
+        path = figure_checks_path(self.dir)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({"notebook": self.notebook, "quick": self.quick,
+                                    "figures_dir": str(self.dir.resolve()),
+                                    "problems": self.figure_problems}, indent=1) + "\n")
+        if self.show:
+            from IPython.display import Image, display
+
+            display(Image(filename=str(png)))
+        if close:
+            plt.close(fig)
+        return None
