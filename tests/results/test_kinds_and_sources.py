@@ -83,13 +83,37 @@ def test_report_stores_enough_digits_to_tell_the_value_from_a_threshold(tmp_path
     assert rep.claims[0].verdict == "differs"
 
 
-def _notebook(root, name, claims):
-    """A notebook's metrics.json with ``claims`` = [(item, metric value, rule, kind)]."""
+def _notebook(root, name, claims, paper="P"):
+    """A notebook's metrics.json with ``claims`` = [(item, metric value, rule, kind[, duplicate_of])]."""
     rep = Report(name, root, show=False)
-    for k, (item, v, rule, kind) in enumerate(claims):
+    for k, (item, v, rule, kind, *dup) in enumerate(claims):
         rep.metric(f"m{k}", v)
-        rep.claim("P", item, "", f"m{k}", Rule(f"m{k}", **rule), kind=kind)
+        rep.claim(paper, item, "", f"m{k}", Rule(f"m{k}", **rule), kind=kind,
+                  duplicate_of=dup[0] if dup else "")
     rep.write()
+
+
+def test_a_claim_graded_twice_is_listed_with_its_reference_and_counted_once(tmp_path):
+    """Catches padding: the same paper claim graded in two notebooks counted twice in the
+    summary, the per-paper tally or the per-notebook tally."""
+    le1 = dict(reproduced="value <= 1", source="paper: (7)")
+    _notebook(tmp_path, "03_a", [("Theorem 1 enclosure", 0.5, le1, "paper"),
+                                 ("Fig. 3 widths", 2.0, le1, "paper")], paper="Ifqir 2017")
+    _notebook(tmp_path, "08_b", [("enclosure on another car", 0.7, le1, "paper",
+                                  "03_a: Theorem 1 enclosure")], paper="Ifqir 2017 (interval)")
+    _notebook(tmp_path, "04_c", [("Fig. 2", 0.1, le1, "paper")], paper="Ichalal 2011; Fig. 2")
+    text = write_reproduction(tmp_path, tmp_path / "R.md", tmp_path).read_text()
+    summary = next(ln for ln in text.splitlines() if ln.startswith("Summary:"))
+    assert summary.startswith("Summary: 3 distinct paper claims: 2 reproduced, 0 partly, 1 differs")
+    assert "1 more rows grade a claim already counted" in summary
+    table = text.split("## Distinct paper claims per paper\n\n")[1].split("\n\n")[0].splitlines()
+    assert table[2:] == ["| Ichalal 2011 | 04 | 1 | 1 | 0 | 0 | 0 |",
+                         "| Ifqir 2017 | 03, 08 | 2 | 1 | 0 | 1 | 0 |"]
+    assert "- 08_b: 0 (none) [1 duplicate]" in text
+    row = next(ln for ln in text.splitlines() if "| enclosure on another car |" in ln)
+    assert "**reproduced** (duplicate, not counted)" in row
+    assert "  - same claim as [p03.1] (03_a: Theorem 1 enclosure): listed, not counted again" in text
+    assert "Paper claims: 3 paper claims" not in text and "3 paper claims: 2 reproduced" in text
 
 
 def test_reproduction_counts_paper_claims_apart_from_the_other_kinds(tmp_path):
@@ -108,11 +132,11 @@ def test_reproduction_counts_paper_claims_apart_from_the_other_kinds(tmp_path):
     text = write_reproduction(tmp_path, tmp_path / "R.md", tmp_path).read_text()
     summary = next(ln for ln in text.splitlines() if ln.startswith("Summary:"))
     assert summary == (
-        "Summary: 3 paper claims: 1 reproduced (1 of which hold but prove little), 1 partly, "
+        "Summary: 3 distinct paper claims: 1 reproduced (1 of which hold but prove little), 1 partly, "
         "1 differs, 0 not comparable. Counted apart, not paper claims: 1 benchmark target "
         "(1 reproduced); 2 diagnostics (2 differs); 1 data check (1 reproduced).")
     heads = [ln for ln in text.splitlines() if ln.startswith("## ")]
-    assert heads == ["## Paper claims", "## Benchmark targets", "## Diagnostics", "## Data checks",
+    assert heads == ["## Distinct paper claims per paper", "## Paper claims", "## Benchmark targets", "## Diagnostics", "## Data checks",
                      "## 01_a", "## 02_b"]
     paper = text.split("\n## Paper claims\n")[1].split("\n## Benchmark targets\n")[0]
     assert "smoother" not in paper and "data check" not in paper and "| fit |" in paper

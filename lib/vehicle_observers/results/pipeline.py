@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import textwrap
 import time
@@ -209,6 +210,8 @@ def _claim_row(nb: str, c: dict, metrics: dict, ref: str = "") -> str:
     fig = c["figure"]
     link = f"[{fig}](figures/{nb}/{fig}.png)" if fig else ""
     verdict = f"**{c['verdict']}**"
+    if c.get("duplicate_of"):
+        verdict += " (duplicate, not counted)"
     if c.get("proves_little"):
         verdict += " (holds but proves little)"
     cells = [c["paper"], c["item"], link, c["metric"], claim_value_text(c, metrics), c["target"],
@@ -216,10 +219,16 @@ def _claim_row(nb: str, c: dict, metrics: dict, ref: str = "") -> str:
     return "| " + " | ".join(_cell(x) for x in cells) + " |"
 
 
-def _claim_details(ref: str, c: dict) -> list[str]:
+def _claim_details(ref: str, c: dict, refs_of: dict | None = None) -> list[str]:
     """The list entry ``ref`` of a claim: its rule, where the thresholds come from, its note
-    (one line each, so no line of REPRODUCTION.md is a paragraph)."""
+    (one line each, so no line of REPRODUCTION.md is a paragraph); for a duplicate, where the
+    claim is counted."""
     out = [f"- {ref} rule: {_cell(c.get('rule', ''))}"]
+    if c.get("duplicate_of"):
+        nb, _, item = c["duplicate_of"].partition(":")
+        where = (refs_of or {}).get((nb.strip(), item.strip()), "")
+        out.append(f"  - same claim as {where or _cell(c['duplicate_of'])} "
+                   f"({_cell(c['duplicate_of'])}): listed, not counted again")
     if _source_text(c):
         out.append(f"  - threshold from: {_cell(_source_text(c))}")
     if c.get("note"):
@@ -227,27 +236,70 @@ def _claim_details(ref: str, c: dict) -> list[str]:
     return out
 
 
+def paper_of(claim: dict) -> str:
+    """The paper a claim belongs to, ``"Author Year"`` (the text of its ``paper`` field before
+    any parenthesis or semicolon: ``"El Youssfi 2020 (relaxed UIO)"`` -> ``"El Youssfi 2020"``)."""
+    return re.split(r"\s*[(;]", claim["paper"], maxsplit=1)[0].strip()
+
+
+def distinct(claims: list[dict]) -> list[dict]:
+    """The claims that are not a duplicate of a claim graded elsewhere (``duplicate_of``)."""
+    return [c for c in claims if not c.get("duplicate_of")]
+
+
+def paper_tally_table(paper_rows: list[tuple[str, dict]]) -> list[str]:
+    """Markdown table of the distinct paper claims per paper: one row per paper, its
+    notebooks and its count per verdict (duplicates are not counted again)."""
+    papers = sorted({paper_of(c) for _, c in paper_rows})
+    head = ["| paper | notebooks | distinct claims | " + " | ".join(VERDICTS) + " |",
+            "|---|---|---|" + "---|" * len(VERDICTS)]
+    rows = []
+    for p in papers:
+        sel = [(nb, c) for nb, c in paper_rows if paper_of(c) == p]
+        cl = distinct([c for _, c in sel])
+        cells = []
+        for v in VERDICTS:
+            n = [c for c in cl if c["verdict"] == v]
+            weak = sum(bool(c.get("proves_little")) for c in n)
+            cells.append(f"{len(n)}" + (f" ({weak} prove little)" if weak else ""))
+        nbs = ", ".join(dict.fromkeys(nb[:2] for nb, _ in sel))
+        rows.append(f"| {p} | {nbs} | {len(cl)} | " + " | ".join(cells) + " |")
+    return head + rows
+
+
+def report_notebook(nb: str, root: Path) -> str:
+    """Where a section's claims are computed: its report notebook if there is one."""
+    rep = root / "notebooks" / "reports" / f"{nb}_report.ipynb"
+    return f"notebooks/reports/{nb}_report.ipynb" if rep.exists() else f"notebooks/{nb}.ipynb"
+
+
 def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -> Path:
     """Build REPRODUCTION.md from every ``figures/*/metrics.json``: the paper claims first,
-    with their own tally, then the benchmark targets, diagnostics, baselines and data checks
-    in separate tables with their own counts (never added to the paper claims), then every
-    notebook's metrics."""
+    with their own tally per paper and per notebook (a claim marked ``duplicate_of`` is listed
+    with a reference to where it is graded and counted once), then the benchmark targets,
+    diagnostics, baselines and data checks in separate tables with their own counts (never
+    added to the paper claims), then every notebook's metrics."""
     root = root or repo_root()
     docs = [json.loads(mj.read_text()) for mj in sorted(figures_dir.glob("*/metrics.json"))]
     docs = [d for d in docs if "notebook" in d]
     values = {d["notebook"]: {k: v["value"] for k, v in d["metrics"].items()} for d in docs}
     by_kind = {k: [(d["notebook"], c) for d in docs for c in d["claims"] if _kind(c) == k]
                for k in KINDS}
-    paper = [c for _, c in by_kind["paper"]]
+    paper = distinct([c for _, c in by_kind["paper"]])
+    dups = len(by_kind["paper"]) - len(paper)
     apart = [f"{_count(len(by_kind[k]), k)} ({tally([c for _, c in by_kind[k]], zeros=False)})"
              for k in KINDS if k != "paper" and by_kind[k]]
-    summary = (f"Summary: {_count(len(paper), 'paper')}: {tally(paper)}." if paper
+    summary = (f"Summary: {len(paper)} distinct paper claims: {tally(paper)}." if paper
                else "Summary: no paper claims yet.")
+    if dups:
+        summary += f" {dups} more rows grade a claim already counted (listed, not counted again)."
     if apart:
         summary += " Counted apart, not paper claims: " + "; ".join(apart) + "."
     lines = ["# Reproduction status", "",  # prose wrapped below (no paragraph-long line)
-             "Generated by `make figures` from the claims each notebook records "
-             "(`figures/<notebook>/metrics.json`); do not edit by hand.", "",
+             "Generated by `make figures` from the claims each section's reproduction report "
+             "records (`notebooks/reports/`, written to `figures/<notebook>/metrics.json`); do "
+             "not edit by hand. The lessons (`notebooks/NN_*.ipynb`) teach; the reports hold "
+             "the bookkeeping below.", "",
              "Each verdict is computed from its rule (`results/rules.py`, listed below each table): "
              "the rule's "
              "expression over the run's metrics gives the value; **reproduced** if the "
@@ -258,33 +310,48 @@ def write_reproduction(figures_dir: Path, out: Path, root: Path | None = None) -
              "numbers are the paper's (\"paper:\") or chosen in this repository (\"chosen "
              "here:\", with the reason). A value close to a threshold is shown with enough "
              "digits to tell on which side it lies.", "",
-             "Only the claims printed in the papers are counted as the reproduction. Benchmark "
-             "targets, diagnostics, baselines and data checks are tabled and counted apart.", "",
+             "Only the claims printed in the papers are counted as the reproduction, each "
+             "distinct claim once: a row that grades a claim already graded in another notebook "
+             "names that row and is not counted again. Benchmark targets, diagnostics, baselines "
+             "and data checks are tabled and counted apart.", "",
              summary, ""]
     lines = [textwrap.fill(x, 100, break_long_words=False, break_on_hyphens=False)
              if len(x) > 100 and not x.startswith(("|", "#", "Summary:")) else x for x in lines]
+    if by_kind["paper"]:
+        lines += ["## Distinct paper claims per paper", "", *paper_tally_table(by_kind["paper"]), "",
+                  "Per notebook (distinct claims; duplicates in brackets):", ""]
+        for nb in dict.fromkeys(nb for nb, _ in by_kind["paper"]):
+            sel = [c for n, c in by_kind["paper"] if n == nb]
+            d = len(sel) - len(distinct(sel))
+            lines.append(f"- {nb}: {len(distinct(sel))} ({tally(distinct(sel), zeros=False) or 'none'})"
+                         + (f" [{d} duplicate{'s' if d > 1 else ''}]" if d else ""))
+        lines.append("")
+    refs_of: dict[tuple[str, str], str] = {}
     for kind, title in KINDS.items():
         rows = by_kind[kind]
         if not rows:
             continue
+        counted = distinct([c for _, c in rows])
         lines += [f"## {title[0].upper() + title[1:]}", "", KIND_INTROS[kind], "",
-                  f"{_count(len(rows), kind)}: {tally([c for _, c in rows], zeros=kind == 'paper')}.",
+                  f"{_count(len(counted), kind)}: {tally(counted, zeros=kind == 'paper')}.",
                   ""]
         for nb in dict.fromkeys(nb for nb, _ in rows):
             lines += [f"### {title[0].upper() + title[1:]}: {nb}", "", *TABLE_HEADER]
             sel = [c for n, c in rows if n == nb]
             refs = [f"[{kind[0]}{nb[:2]}.{i + 1}]" for i in range(len(sel))]
+            for c, r in zip(sel, refs):
+                refs_of[(nb, c["item"])] = r
             lines += [_claim_row(nb, c, values[nb], r) for c, r in zip(sel, refs)]
             lines.append("")
             for c, r in zip(sel, refs):
-                lines += _claim_details(r, c)
+                lines += _claim_details(r, c, refs_of)
             lines.append("")
     for d in docs:
         nb = d["notebook"]
         mode = " (quick mode)" if d.get("quick") else ""
         counts = ", ".join(_count(n, k) for k in KINDS
                            if (n := sum(_kind(c) == k for c in d["claims"])))
-        lines += [f"## {nb}{mode}", "", f"Notebook: `notebooks/{nb}.ipynb`, seed {d.get('seed')}; "
+        lines += [f"## {nb}{mode}", "", f"Report: `{report_notebook(nb, root)}`, seed {d.get('seed')}; "
                   f"claims: {counts or 'none'}.", ""]
         if d["metrics"]:
             lines += ["<details><summary>all metrics</summary>", "",
