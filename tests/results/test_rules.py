@@ -109,7 +109,7 @@ def test_report_computes_stores_and_writes(tmp_path):
     assert c["verdict"] == "reproduced" and c["proves_little"] and "value <= 1" in c["rule"]
     assert "solve_s" not in doc["metrics"]
     assert doc["metrics"]["lmi_c"]["rtol"] == 0.01
-    assert sorted(doc["files"]) == ["fig.pdf", "fig.png", "metrics.json"]
+    assert sorted(doc["files"]) == ["fig.pdf", "fig.png", "figure_data.json", "metrics.json"]
     assert load_metrics(path)["ratio"] == 0.007077
 
 

@@ -186,3 +186,114 @@ def label_problems(fig) -> list[str]:
             elif not _UNIT.search(label):
                 problems.append(f"{where}: {which} label {label!r} has no unit in brackets")
     return problems
+
+
+# ------------------------------------------------------------------ figure data ----------
+
+def _hex(c) -> str:
+    """A matplotlib colour as ``#rrggbbaa`` (``"none"`` for a transparent or absent one)."""
+    from matplotlib.colors import to_hex
+
+    try:
+        arr = np.asarray(c, dtype=float)
+        if arr.ndim == 2:
+            arr = arr[0] if len(arr) else None
+        if arr is None or arr.size == 0:
+            return "none"
+        return to_hex(arr, keep_alpha=True)
+    except (TypeError, ValueError):
+        try:
+            return to_hex(c, keep_alpha=True)
+        except (TypeError, ValueError):
+            return "none"
+
+
+def _summary(v) -> dict:
+    """``{"n", "min", "max", "mean"}`` of the finite values of ``v`` (4 significant digits);
+    ``{"n": 0}`` without finite values."""
+    a = np.asarray(v, dtype=float).ravel()
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return {"n": 0}
+    r = lambda x: float(f"{float(x):.4g}")  # noqa: E731
+    return {"n": int(a.size), "min": r(a.min()), "max": r(a.max()), "mean": r(a.mean())}
+
+
+def _as_float(v):
+    try:
+        return np.asarray(v, dtype=float)
+    except (TypeError, ValueError):   # dates or categories: their positions are what is drawn
+        return np.arange(len(v), dtype=float)
+
+
+def figure_data(fig) -> dict:
+    """What a figure shows, as plain data that a regeneration check can compare
+    (:func:`vehicle_observers.results.check.compare_figure_data`): per axes its title, labels,
+    scales and limits; per line its label, colour, style, marker and a summary (count, min, max,
+    mean) of its x and y data; per patch group (bars, areas) its colours and hatches and a
+    summary of the rectangles; per collection (scatter, fill_between, pcolormesh) its colours
+    and a summary of its offsets or array; per image its shape, colour map and a summary; the
+    texts and legend entries. A different colour, a missing series or moved data show up as a
+    difference; the rendering (fonts, anti-aliasing) does not."""
+    from matplotlib.patches import Rectangle
+
+    out = {"suptitle": fig._suptitle.get_text() if fig._suptitle else "", "axes": []}
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        a = {"title": " | ".join(t for t in (ax.get_title("left"), ax.get_title(),
+                                              ax.get_title("right")) if t),
+             "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(),
+             "xscale": ax.get_xscale(), "yscale": ax.get_yscale(),
+             "xlim": [float(f"{x:.4g}") for x in ax.get_xlim()],
+             "ylim": [float(f"{x:.4g}") for x in ax.get_ylim()],
+             "axis_on": bool(ax.axison)}
+        a["lines"] = [{"label": ln.get_label() if not ln.get_label().startswith("_") else "",
+                       "color": _hex(ln.get_color()), "linestyle": str(ln.get_linestyle()),
+                       "marker": str(ln.get_marker()), "x": _summary(_as_float(ln.get_xdata())),
+                       "y": _summary(_as_float(ln.get_ydata()))}
+                      for ln in ax.get_lines() if ln.get_visible()]
+        rects = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_visible()]
+        others = [p for p in ax.patches if not isinstance(p, Rectangle) and p.get_visible()]
+        a["bars"] = {"n": len(rects),
+                     "facecolors": sorted({_hex(p.get_facecolor()) for p in rects}),
+                     "hatches": sorted({str(p.get_hatch() or "") for p in rects}),
+                     "x": _summary([p.get_x() + p.get_width() / 2 for p in rects]),
+                     "height": _summary([p.get_height() for p in rects]),
+                     "width": _summary([p.get_width() for p in rects])} if rects else {}
+        a["patches"] = [{"type": type(p).__name__, "facecolor": _hex(p.get_facecolor()),
+                         "hatch": str(p.get_hatch() or "")} for p in others]
+        cols = []
+        for c in ax.collections:
+            if not c.get_visible():
+                continue
+            d = {"type": type(c).__name__, "label": c.get_label() if not c.get_label().startswith("_") else "",
+                 "facecolors": sorted({_hex(x) for x in np.atleast_2d(c.get_facecolor())})[:10],
+                 "edgecolors": sorted({_hex(x) for x in np.atleast_2d(c.get_edgecolor())})[:10]}
+            arr = c.get_array()
+            if arr is not None:
+                d["array"] = _summary(np.ma.filled(np.ma.asarray(arr, dtype=float), np.nan))
+                d["cmap"] = c.get_cmap().name
+            off = c.get_offsets()
+            if off is not None and len(off) > 1:
+                off = np.asarray(off, dtype=float)
+                d["x"], d["y"] = _summary(off[:, 0]), _summary(off[:, 1])
+            paths = c.get_paths() if hasattr(c, "get_paths") else []
+            verts = [p.vertices for p in paths if len(p.vertices)]
+            if verts and (off is None or len(off) <= 1):
+                v = np.concatenate(verts)
+                d["x"], d["y"] = _summary(v[:, 0]), _summary(v[:, 1])
+            cols.append(d)
+        a["collections"] = cols
+        a["images"] = [{"shape": list(np.shape(im.get_array())), "cmap": im.get_cmap().name,
+                        "clim": [float(f"{x:.4g}") for x in im.get_clim()],
+                        "values": _summary(np.ma.filled(np.ma.asarray(im.get_array(), dtype=float),
+                                                        np.nan))}
+                       for im in ax.get_images()]
+        a["texts"] = [t.get_text() for t in ax.texts if t.get_visible() and t.get_text()]
+        leg = ax.get_legend()
+        a["legend"] = [t.get_text() for t in leg.get_texts()] if leg else []
+        out["axes"].append(a)
+    legs = [lg for lg in fig.legends]
+    out["figure_legend"] = [t.get_text() for lg in legs for t in lg.get_texts()]
+    return out

@@ -43,7 +43,7 @@ import numpy as np
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results import plotting  # noqa: F401  (applies the one figure style)
-from vehicle_observers.results.plotting import label_problems
+from vehicle_observers.results.plotting import figure_data, label_problems
 from vehicle_observers.results.rules import (
     KINDS,
     VERDICTS,
@@ -142,6 +142,9 @@ class Report:
         #: ``{figure: axis-label problems}`` (:func:`~vehicle_observers.results.plotting.label_problems`),
         #: written beside the timings, never into metrics.json
         self.figure_problems: dict[str, list[str]] = {}
+        #: ``{figure: what it shows}`` (:func:`~vehicle_observers.results.plotting.figure_data`),
+        #: written to ``figure_data.json`` and compared by the regeneration check
+        self.figure_data: dict[str, dict] = {}
 
     # ------------------------------------------------------------------ figures ----------
     def savefig(self, fig, name: str, close: bool = True):
@@ -159,6 +162,7 @@ class Report:
             if fn not in self.files:
                 self.files.append(fn)
         self.figure_problems[name] = label_problems(fig)   # tick labels exist once drawn
+        self.figure_data[name] = jsonable(figure_data(fig))
         png = self.dir / f"{name}.png"
         if self.show:
             from IPython.display import Image, display
@@ -262,8 +266,11 @@ class Report:
         doc = {"notebook": self.notebook, "quick": self.quick, "seed": self.seed,
                "metrics": self.metrics, "claims": [{k: v for k, v in c.__dict__.items()
                            if k != "duplicate_of" or v} for c in self.claims],
-               "files": sorted(self.files + ["metrics.json"])}
+               "files": sorted(self.files + ["metrics.json"]
+                               + (["figure_data.json"] if self.figure_data else []))}
         path.write_text(json.dumps(jsonable(doc), indent=1, sort_keys=False) + "\n")
+        if self.figure_data:
+            write_figure_data(self.dir, self.figure_data)
         if self.figure_problems:
             path = figure_checks_path(self.dir)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -311,6 +318,14 @@ def figure_checks_path(figures_dir) -> Path:
     d = Path(figures_dir).resolve()
     h = hashlib.sha1(str(d).encode()).hexdigest()[:12]
     return repo_root() / "build" / "figure_checks" / f"{d.name}-{h}.json"
+
+
+def write_figure_data(folder, data: dict) -> Path:
+    """Write ``{figure: what it shows}`` to ``<folder>/figure_data.json`` (sorted, one
+    indentation level per nesting, deterministic)."""
+    path = Path(folder) / "figure_data.json"
+    path.write_text(json.dumps(jsonable(data), indent=1, sort_keys=True) + "\n")
+    return path
 
 
 def load_metrics(path) -> dict:

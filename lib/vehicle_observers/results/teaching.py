@@ -266,6 +266,9 @@ class Lesson:
         self.show = _in_kernel() if show is None else bool(show)
         #: ``{figure: axis-label problems}`` of the figures saved so far
         self.figure_problems: dict[str, list[str]] = {}
+        #: ``{figure: what it shows}``, written to ``figure_data.json`` beside the figures and
+        #: compared by the regeneration check (:mod:`vehicle_observers.results.check`)
+        self.figure_data: dict[str, dict] = {}
 
     def savefig(self, fig, name: str, close: bool = True):
         """Save ``fig`` as ``<name>.png`` in the lesson's folder and show it inline. Returns
@@ -274,8 +277,8 @@ class Lesson:
 
         import matplotlib.pyplot as plt
 
-        from vehicle_observers.results.plotting import label_problems
-        from vehicle_observers.results.reporting import figure_checks_path
+        from vehicle_observers.results.plotting import figure_data, label_problems
+        from vehicle_observers.results.reporting import figure_checks_path, jsonable, write_figure_data
 
         if "/" in name or "." in name:
             raise ValueError(f"figure name {name!r}: no extension or folder, e.g. 'band_vs_truth'")
@@ -283,6 +286,8 @@ class Lesson:
         png = self.dir / f"{name}.png"
         fig.savefig(png, metadata={"Software": None})
         self.figure_problems[name] = label_problems(fig)
+        self.figure_data[name] = jsonable(figure_data(fig))
+        write_figure_data(self.dir, self.figure_data)
         path = figure_checks_path(self.dir)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps({"notebook": self.notebook, "quick": self.quick,
