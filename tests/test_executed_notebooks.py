@@ -33,7 +33,7 @@ from vehicle_observers.results import pipeline
 from vehicle_observers.results.reporting import figure_checks_path
 
 ROOT = repo_root()
-NOTEBOOKS = [p.stem for p in pipeline.notebooks(ROOT)]
+NOTEBOOKS = [p.stem for p in pipeline.notebooks(ROOT, kinds=tuple(pipeline.NOTEBOOK_KINDS))]
 FULL_BUILD = ROOT / "build" / "notebooks"
 
 #: an output that is a path object or a lone file path
@@ -115,51 +115,111 @@ def _statuses(cell) -> list[str]:
             for m in _STATUS_RE.findall(_text(out, "text/html"))]
 
 
+def _exercise_starts(cells) -> list[int]:
+    return [i for i, c in enumerate(cells) if c.cell_type == "markdown"
+            and c.source.lstrip().startswith("**Exercise")]
+
+
+def _block(cells, i):
+    """The cells after cell ``i`` up to the next section heading or exercise."""
+    block = []
+    for c in cells[i + 1:]:
+        if c.cell_type == "markdown" and (c.source.lstrip().startswith(("#", "**Exercise"))):
+            break
+        block.append(c)
+    return block
+
+
 def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
-    """What an executed notebook's exercises do wrong, one line per problem (empty when fine).
+    """What an executed lesson's exercises do wrong, one line per problem (empty when fine).
 
     An exercise is a markdown cell starting ``**Exercise N.**`` followed (before the next
-    markdown cell that starts a section or an exercise) by a code cell tagged ``exercise``, a
-    stub with ``# your code here`` whose checker said ``not attempted``, then a code cell tagged
-    ``solution`` with its source hidden in JupyterLab whose checker said ``correct``
-    (:func:`vehicle_observers.results.teaching.check`). At least ``minimum`` exercises; no
-    solution in plain sight (a markdown cell starting ``**Solution``)."""
+    markdown cell that starts a section or an exercise) by one code cell tagged ``exercise``, a
+    stub with ``# your code here`` whose checker said ``not attempted``
+    (:func:`vehicle_observers.results.teaching.check`), and a markdown cell pointing to its
+    ``**Solution and discussion:**`` in the section's solutions notebook. At least ``minimum``
+    exercises, numbered in order; no solution in the lesson (no cell tagged ``solution``, no
+    markdown solution), so Run All never executes one and the exported page never shows one."""
     problems = []
     cells = nb.cells
-    starts = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
-              and c.source.lstrip().startswith("**Exercise")]
+    starts = _exercise_starts(cells)
     if len(starts) < minimum:
         problems.append(f"{len(starts)} exercises (want at least {minimum} '**Exercise N.**' cells)")
+    sol_cells = [i for i, c in enumerate(cells) if c.cell_type == "code"
+                 and "solution" in c.metadata.get("tags", [])]
+    if sol_cells:
+        problems.append(f"cells {sol_cells}: solution code in the lesson (Run All would execute it; "
+                        "it belongs in the solutions notebook)")
     shown = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
-             and c.source.lstrip().startswith("**Solution")]
+             and c.source.lstrip().startswith("**Solution") and "solutions" not in c.source]
     if shown:
         problems.append(f"cells {shown}: a solution in plain sight (markdown '**Solution')")
     for n, i in enumerate(starts, 1):
         label = cells[i].source.lstrip()[:20].split(".**")[0].strip("* ")
         if label != f"Exercise {n}":
             problems.append(f"cell {i}: '{label}' is exercise number {n} in order")
-        block = []
-        for c in cells[i + 1:]:
-            if c.cell_type == "markdown" and (c.source.lstrip().startswith(("#", "**Exercise"))):
-                break
-            block.append(c)
+        block = _block(cells, i)
         stubs = [c for c in block if c.cell_type == "code" and "exercise" in c.metadata.get("tags", [])]
-        sols = [c for c in block if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])]
-        if len(stubs) != 1 or len(sols) != 1:
-            problems.append(f"cell {i} ({label}): {len(stubs)} 'exercise' and {len(sols)} 'solution' "
-                            f"code cells after it (want one of each)")
+        if len(stubs) != 1:
+            problems.append(f"cell {i} ({label}): {len(stubs)} 'exercise' code cells after it (want one)")
             continue
-        stub, sol = stubs[0], sols[0]
+        stub = stubs[0]
         if "# your code here" not in stub.source:
             problems.append(f"cell {i} ({label}): the stub has no '# your code here'")
         if _statuses(stub) != ["not attempted"]:
             problems.append(f"cell {i} ({label}): the stub's checker said {_statuses(stub)} "
                             f"(want ['not attempted'])")
-        if not sol.metadata.get("jupyter", {}).get("source_hidden"):
-            problems.append(f"cell {i} ({label}): the solution's source is not hidden")
-        if _statuses(sol) != ["correct"]:
-            problems.append(f"cell {i} ({label}): the solution's checker said {_statuses(sol)} "
-                            f"(want ['correct'])")
+        if not any(c.cell_type == "markdown" and "Solution and discussion" in c.source
+                   and "solutions" in c.source for c in block):
+            problems.append(f"cell {i} ({label}): no 'Solution and discussion' pointer to the "
+                            "solutions notebook")
+    return problems
+
+
+def solution_problems(nb: nbformat.NotebookNode, exercises: int) -> list[str]:
+    """What an executed solutions notebook does wrong: every exercise ``1..exercises`` of its
+    lesson has a ``**Exercise N.**`` cell followed by code whose checker says ``correct``."""
+    problems = []
+    cells = nb.cells
+    starts = _exercise_starts(cells)
+    labels = [cells[i].source.lstrip()[:20].split(".**")[0].strip("* ") for i in starts]
+    for n in range(1, exercises + 1):
+        if f"Exercise {n}" not in labels:
+            problems.append(f"no worked solution of Exercise {n}")
+            continue
+        i = starts[labels.index(f"Exercise {n}")]
+        st = [x for c in _block(cells, i) if c.cell_type == "code" for x in _statuses(c)]
+        if not st or st[-1] != "correct":
+            problems.append(f"Exercise {n}: the solution's checker said {st} (want 'correct' last)")
+    return problems
+
+
+#: a lesson shows at most this many rows in one table (a figure and a two-line summary say more)
+MAX_TABLE_ROWS = 12
+_ROW_RE = re.compile(r"<tr\b", re.I)
+_EMPTY_CELL_RE = re.compile(r"<td[^>]*>\s*(?:None|nan|NaN|-?inf)\s*</td>")
+
+
+def lesson_output_problems(nb: nbformat.NotebookNode) -> list[str]:
+    """Curated outputs of an executed lesson: no HTML table longer than
+    :data:`MAX_TABLE_ROWS` body rows, no None/nan/inf cell, no dict or solver dump."""
+    problems = []
+    for i, cell in enumerate(nb.cells):
+        if cell.cell_type != "code":
+            continue
+        for out in cell.get("outputs", []):
+            page = _text(out, "text/html")
+            for table in re.findall(r"<table\b.*?</table>", page, re.S | re.I):
+                rows = len(_ROW_RE.findall(table)) - len(re.findall(r"<thead\b", table, re.I))
+                if rows > MAX_TABLE_ROWS:
+                    problems.append(f"cell {i}: a table of {rows} rows (at most {MAX_TABLE_ROWS})")
+                if _EMPTY_CELL_RE.search(table):
+                    problems.append(f"cell {i}: a table cell shows None/nan/inf")
+            text = _text(out)
+            if re.search(r"\b(?:OPTIMAL|optimal_inaccurate|solve time|objective \d)", text):
+                problems.append(f"cell {i}: a solver dump in the output: {text[:60]!r}")
+            if re.search(r"/tmp/|tmp[a-z0-9_]{6,}/", text):
+                problems.append(f"cell {i}: a temporary path in the output")
     return problems
 
 
@@ -239,37 +299,45 @@ def test_checker_rejects_a_printed_path_and_an_error_but_not_prose():
                                        "cell 1: error output ValueError: bad"]
 
 
-def _exercise_nb(stub_status="not attempted", sol_status="correct", hidden=True,
-                 solution_md=False) -> nbformat.NotebookNode:
-    def status(st):
-        return [new_output("display_data", data={"text/html": f'<div data-status="{st}">x</div>',
-                                                  "text/plain": "Exercise"})]
+def _status(st):
+    return [new_output("display_data", data={"text/html": f'<div data-status="{st}">x</div>',
+                                              "text/plain": "Exercise"})]
+
+
+def _exercise_nb(stub_status="not attempted", solution_cell=False, solution_md=False,
+                 pointer=True) -> nbformat.NotebookNode:
     nb = new_notebook()
     for n in (1, 2, 3):
         nb.cells.append(nbformat.v4.new_markdown_cell(f"**Exercise {n}.** Do it."))
         stub = new_code_cell("def f():\n    ...  # your code here\nex.check(f)",
                              metadata={"tags": ["exercise"]})
-        stub.outputs = status(stub_status)
-        sol = new_code_cell("def f():\n    return 1\nex.check(f)",
-                            metadata={"tags": ["solution"], "jupyter": {"source_hidden": hidden}})
-        sol.outputs = status(sol_status)
-        nb.cells += [stub, sol]
+        stub.outputs = _status(stub_status)
+        nb.cells.append(stub)
+        if pointer:
+            nb.cells.append(nbformat.v4.new_markdown_cell(
+                f"**Solution and discussion:** see `solutions/99_x_solutions.ipynb`, Exercise {n}."))
+        if solution_cell:
+            sol = new_code_cell("def f():\n    return 1\nex.check(f)",
+                                metadata={"tags": ["solution"], "jupyter": {"source_hidden": True}})
+            sol.outputs = _status("correct")
+            nb.cells.append(sol)
         if solution_md:
             nb.cells.append(nbformat.v4.new_markdown_cell(f"**Solution {n}.** It is 1."))
     return nb
 
 
-def test_exercise_checker_accepts_stub_then_hidden_solution():
+def test_exercise_checker_accepts_stubs_pointing_to_the_solutions():
     assert exercise_problems(_exercise_nb()) == []
 
 
 @pytest.mark.parametrize("kw, words", [
     ({"stub_status": "correct"}, "stub's checker said ['correct']"),
-    ({"sol_status": "not yet"}, "solution's checker said ['not yet']"),
-    ({"hidden": False}, "source is not hidden"),
+    ({"solution_cell": True}, "solution code in the lesson"),
     ({"solution_md": True}, "in plain sight"),
+    ({"pointer": False}, "no 'Solution and discussion' pointer"),
 ])
 def test_exercise_checker_rejects(kw, words):
+    """Catches a lesson whose Run All executes (or whose page shows) a solution."""
     problems = exercise_problems(_exercise_nb(**kw))
     assert problems and any(words in p for p in problems), problems
 
@@ -279,6 +347,31 @@ def test_exercise_checker_wants_three_and_in_order():
     assert exercise_problems(nb, minimum=4)[0].startswith("3 exercises")
     nb.cells[3].source = "**Exercise 5.** Wrong number."
     assert any("'Exercise 5' is exercise number 2" in p for p in exercise_problems(nb))
+
+
+def test_solutions_checker_wants_every_exercise_solved_correctly():
+    """Catches a solutions notebook that misses an exercise or whose solution is wrong."""
+    nb = new_notebook()
+    for n, st in ((1, "correct"), (2, "not yet")):
+        nb.cells.append(nbformat.v4.new_markdown_cell(f"**Exercise {n}.** Worked solution."))
+        c = new_code_cell("ex.check(f)")
+        c.outputs = _status(st)
+        nb.cells.append(c)
+    assert solution_problems(nb, 2) == ["Exercise 2: the solution's checker said ['not yet'] "
+                                        "(want 'correct' last)"]
+    assert solution_problems(nb, 3)[-1] == "no worked solution of Exercise 3"
+
+
+def test_lesson_output_checker_rejects_long_tables_and_empty_cells():
+    """Catches 30-row tables full of None/nan and solver dumps in a lesson."""
+    rows = "".join(f"<tr><td>{k}</td><td>{'nan' if k == 3 else k}</td></tr>" for k in range(20))
+    nb = _executed([[new_output("display_data", data={"text/html": f"<table><thead><tr><th>a</th>"
+                                                                  f"</tr></thead>{rows}</table>",
+                                                      "text/plain": "t"})],
+                    [new_output("stream", name="stdout", text="status OPTIMAL, solve time 0.3 s\n")]])
+    problems = lesson_output_problems(nb)
+    assert problems == ["cell 0: a table of 20 rows (at most 12)", "cell 0: a table cell shows None/nan/inf",
+                        "cell 1: a solver dump in the output: 'status OPTIMAL, solve time 0.3 s\\n'"]
 
 
 @pytest.mark.parametrize("text, kind", [
@@ -302,44 +395,80 @@ def test_checker_rejects_warnings_on_stderr():
 
 # ---------------------------------------------------------------- the notebooks ---------------
 
+def _kind(name: str) -> str:
+    return pipeline.notebook_kind(pipeline.notebook_path(name, ROOT))
+
+
+def figures_of(name: str, section_dir: Path) -> tuple[list[str], Path]:
+    """``(figure names, folder)`` a run of notebook ``name`` saved into ``section_dir`` (the
+    run's ``figures/<section>/``): a report's are listed in its ``metrics.json``, a lesson's in
+    ``lesson/figure_data.json``; solutions save none."""
+    kind = _kind(name)
+    if kind == "report":
+        return saved_figures(section_dir / "metrics.json"), section_dir
+    fd = section_dir / "lesson" / "figure_data.json"
+    if kind == "lesson" and fd.exists():
+        return sorted(json.loads(fd.read_text())), section_dir / "lesson"
+    return [], section_dir / "lesson"
+
+
+QUICK = [_param(n, "quick") for n in NOTEBOOKS]
+LESSONS = [_param(n, "quick") for n in NOTEBOOKS if _kind(n) == "lesson"]
+SOLUTIONS = [_param(n, "quick") for n in NOTEBOOKS if _kind(n) == "solutions"]
+
+
 @pytest.mark.notebook
-@pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
+@pytest.mark.parametrize("name", QUICK)
 def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
-    figures = saved_figures(m["_dir"] / "metrics.json")
-    problems = output_problems(nb, figures, m["_dir"])
+    figures, folder = figures_of(name, m["_dir"])
+    problems = output_problems(nb, figures, folder)
     assert not problems, f"{name} (quick): " + "; ".join(problems)
 
 
 @pytest.mark.notebook
-@pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
+@pytest.mark.parametrize("name", QUICK)
 def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
     """Every saved figure passes :func:`vehicle_observers.results.plotting.label_problems`
-    (checked by ``Report.savefig`` on the figure itself, written by ``Report.write`` to
+    (checked by ``Report.savefig`` / ``Lesson.savefig`` on the figure itself, written to
     ``reporting.figure_checks_path(<the run's figures folder>)``)."""
     m = run_notebook(name)
-    if not saved_figures(m["_dir"] / "metrics.json"):
+    figures, folder = figures_of(name, m["_dir"])
+    if not figures:
         pytest.skip(f"{name} saves no figure")
-    checks = figure_checks_path(m["_dir"])
+    checks = figure_checks_path(folder)
     assert checks.exists(), f"{name}: no {checks} written by the run"
-    assert json.loads(checks.read_text())["figures_dir"] == str(Path(m["_dir"]).resolve())
+    assert json.loads(checks.read_text())["figures_dir"] == str(Path(folder).resolve())
     problems = [f"{fig}: {p}" for fig, ps in json.loads(checks.read_text())["problems"].items()
                 for p in ps]
     assert not problems, f"{name}: " + "; ".join(problems)
 
 
 @pytest.mark.notebook
-@pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
-def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
-    """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
+@pytest.mark.parametrize("name", LESSONS)
+def test_quick_executed_lesson_has_real_exercises_and_curated_outputs(name, run_notebook):
+    """Every exercise of a lesson: a stub the checker finds empty and a pointer to its worked
+    solution, none executed or shown in the lesson; tables short, no None/nan, no solver dump."""
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
-    problems = exercise_problems(nb)
+    problems = exercise_problems(nb) + lesson_output_problems(nb)
     assert not problems, f"{name}: " + "; ".join(problems)
 
 
-@pytest.mark.parametrize("name", [_param(n, "full") for n in NOTEBOOKS])
+@pytest.mark.notebook
+@pytest.mark.parametrize("name", SOLUTIONS)
+def test_quick_executed_solutions_solve_every_exercise_of_their_lesson(name, run_notebook):
+    """The solutions notebook (run by the tests, never by the lesson's Run All) solves every
+    exercise of its lesson, each checker saying ``correct``."""
+    lesson = nbformat.read(str(pipeline.notebook_path(pipeline.section_of(name), ROOT)), as_version=4)
+    m = run_notebook(name)
+    nb = nbformat.read(str(m["_executed"]), as_version=4)
+    problems = solution_problems(nb, len(_exercise_starts(lesson.cells)))
+    assert not problems, f"{name}: " + "; ".join(problems)
+
+
+@pytest.mark.parametrize("name", [_param(n, "full") for n in NOTEBOOKS if _kind(n) != "solutions"])
 def test_full_executed_notebook_shows_its_figures(name):
     executed = FULL_BUILD / f"{name}.ipynb"
     if not executed.exists():
@@ -351,10 +480,12 @@ def test_full_executed_notebook_shows_its_figures(name):
     if params.get("quick") or code_sources(nb) != code_sources(current):
         pytest.skip(f"{name}: build/notebooks/ copy is from another notebook version or quick "
                     "mode (run `make figures`)")
-    fig_dir = Path(params.get("figures_dir") or ROOT / "figures") / name
-    if not (fig_dir / "metrics.json").exists():
-        fig_dir = ROOT / "figures" / name
-    problems = output_problems(nb, saved_figures(fig_dir / "metrics.json"), fig_dir)
+    section = pipeline.section_of(name)
+    sec_dir = Path(params.get("figures_dir") or ROOT / "figures") / section
+    if not sec_dir.exists():
+        sec_dir = ROOT / "figures" / section
+    figures, folder = figures_of(name, sec_dir)
+    problems = output_problems(nb, figures, folder)
     assert not problems, f"{name} (full): " + "; ".join(problems)
 
 

@@ -13,7 +13,9 @@ from vehicle_observers.data.logs import repo_root
 from vehicle_observers.results import pipeline
 
 ROOT = repo_root()
-NOTEBOOKS = pipeline.notebooks(ROOT)
+#: every notebook: lessons, reproduction reports and solutions
+NOTEBOOKS = pipeline.notebooks(ROOT, kinds=tuple(pipeline.NOTEBOOK_KINDS))
+LESSONS = pipeline.notebooks(ROOT, kinds=("lesson",))
 PRODUCERS_OUTSIDE_NOTEBOOKS: set = set()  # make bench writes build/benchmark/ (ignored by git)
 
 
@@ -93,8 +95,11 @@ def test_notebook_code_cells_are_thin(nb):
         assert not _nested_loops(c.source), f"{nb.name} cell {i}: nested loops belong in the library"
 
 
-@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("nb", [nb for nb in NOTEBOOKS if pipeline.notebook_kind(nb) != "solutions"],
+                         ids=lambda p: p.stem)
 def test_every_notebook_is_executed_by_a_test(nb):
+    """A lesson and a report each have a test that runs them (solutions are run by
+    ``tests/test_executed_notebooks.py``, which checks every checker says ``correct``)."""
     num = nb.stem[:2]
     t = ROOT / "tests" / "notebooks" / f"test_notebook_{num}.py"
     assert t.exists(), f"no tests/test_notebook_{num}.py for {nb.name}"
@@ -103,10 +108,10 @@ def test_every_notebook_is_executed_by_a_test(nb):
 
 
 def test_every_figure_file_is_produced_by_a_notebook():
-    stems = {nb.stem for nb in NOTEBOOKS} | PRODUCERS_OUTSIDE_NOTEBOOKS
+    sections = {pipeline.section_of(nb.stem) for nb in NOTEBOOKS} | PRODUCERS_OUTSIDE_NOTEBOOKS
     figs = ROOT / "figures"
     for folder in sorted(p for p in figs.iterdir() if p.is_dir()):
-        assert folder.name in stems, f"figures/{folder.name} has no producing notebook"
+        assert folder.name in sections, f"figures/{folder.name} has no producing notebook"
         mj = folder / "metrics.json"
         assert mj.exists(), f"figures/{folder.name} has no metrics.json"
         doc = json.loads(mj.read_text())
@@ -115,15 +120,30 @@ def test_every_figure_file_is_produced_by_a_notebook():
         assert present == listed, (f"figures/{folder.name}: files not written by its producer: "
                                    f"{sorted(present - listed)}; missing: {sorted(listed - present)}")
         assert not doc["quick"], f"figures/{folder.name} was generated in quick mode"
+        extra = [p.name for p in folder.iterdir() if p.is_dir() and p.name != "lesson"]
+        assert not extra, f"figures/{folder.name}: folders not written by a notebook: {extra}"
+        lesson = folder / "lesson"
+        if lesson.is_dir():   # the lesson's figures: each one named in its figure_data.json
+            names = set(json.loads((lesson / "figure_data.json").read_text()))
+            present = {p.name for p in lesson.iterdir()}
+            assert present == {f"{n}.png" for n in names} | {"figure_data.json"}, (
+                f"figures/{folder.name}/lesson: {sorted(present)} against figures {sorted(names)}")
     stray = [p.name for p in figs.iterdir() if p.is_file()]
     assert not stray, f"files directly in figures/: {stray}"
 
 
-def test_every_notebook_has_committed_figures_and_reproduction_entry():
+@pytest.mark.parametrize("nb", LESSONS, ids=lambda p: p.stem)
+def test_every_lesson_has_a_report_solutions_and_a_reproduction_entry(nb):
+    """A section is three notebooks (``pipeline.NOTEBOOK_KINDS``): the lesson, the reproduction
+    report that writes ``figures/<section>/metrics.json`` (listed in REPRODUCTION.md), and the
+    worked solutions of the lesson's exercises."""
     text = (ROOT / "REPRODUCTION.md").read_text()
-    for nb in NOTEBOOKS:
-        assert (ROOT / "figures" / nb.stem / "metrics.json").exists(), f"run make figures ({nb.stem})"
-        assert f"## {nb.stem}" in text, f"REPRODUCTION.md has no section for {nb.stem}"
+    for kind in ("report", "solutions"):
+        p = pipeline.notebook_path(f"{nb.stem}_{kind}", ROOT)
+        assert p.exists(), f"{nb.stem}: no {kind} notebook {p.relative_to(ROOT)}"
+    assert (ROOT / "figures" / nb.stem / "metrics.json").exists(), f"run make figures ({nb.stem})"
+    assert f"## {nb.stem}" in text, f"REPRODUCTION.md has no section for {nb.stem}"
+    assert f"notebooks/reports/{nb.stem}_report.ipynb" in text
 
 
 def test_pipeline_reports_failing_notebook_and_cell(tmp_path, monkeypatch, capsys):
@@ -157,31 +177,74 @@ def test_pipeline_runs_notebooks_in_parallel_and_reports_each_failure(tmp_path, 
     assert pipeline.main(["--jobs", "0"]) == 2
 
 
-#: what the opening cells of every notebook tell a student (the course's learning path)
+#: what the opening cells of every lesson tell a student (the course's learning path)
 LESSON_HEAD = ("what you will learn", "prerequisites", "reading time", "run time")
+#: the reproduction's bookkeeping, which lives in the reports (``notebooks/reports/``), never in
+#: a lesson: recording metrics, claims, rules, timings, printing library source
+BOOKKEEPING = re.compile(r"\bReport\(|\brep\.|\bRule[.(]|\.claim\(|\.metric\(|\.record\(|"
+                         r"\.timing\(|\bgetsource\b|\bverdict|\bmake (?:check|bench)\b|"
+                         r"\brtol\b|regeneration check")
+#: a lesson of a paper section builds its observer in a cell: a function whose name says it is
+#: the observer's step / right-hand side / update (00, the start page, has no observer)
+OBSERVER_DEF = re.compile(r"^def \w*(?:step|rhs|update|predict|observer|estimat)\w*\(", re.M)
 
 
-@pytest.mark.parametrize("nb", NOTEBOOKS, ids=lambda p: p.stem)
-def test_notebook_opens_as_a_lesson_and_keeps_the_bookkeeping_last(nb):
-    """The first markdown cells say what a student learns, what to know before, how long it
-    takes to read and to run, and map the paper's symbols to the course notation; the claims
-    bookkeeping (``rep.claim``/``Rule``) sits in one final 'Reproduction' section, after the
-    lesson (a start page without claims has none)."""
-    doc = nbformat.read(str(nb), as_version=4)
+def lesson_problems(doc: nbformat.NotebookNode, name: str) -> list[str]:
+    """What keeps a stored lesson from teaching alone: the learning-path head missing, the
+    reproduction's bookkeeping in a cell (code or prose), no observer built in a cell."""
+    out = []
     md = [c.source for c in doc.cells if c.cell_type == "markdown"]
     head = " ".join(md[:3]).lower()
     missing = [p for p in LESSON_HEAD if p not in head]
-    assert not missing, f"{nb.name}: the opening cells do not say: {', '.join(missing)}"
-    assert "symbol" in head or "notation" in head, f"{nb.name}: no symbol / notation table at the top"
-    claims = [i for i, c in enumerate(doc.cells) if c.cell_type == "code"
-              and re.search(r"\brep\.claim\(|\bRule[.(]", c.source)]
-    if not claims:
-        return
-    heads = [i for i, c in enumerate(doc.cells) if c.cell_type == "markdown"
-             and re.match(r"#{1,3} .*Reproduction", c.source.lstrip())]
-    assert len(heads) == 1, f"{nb.name}: {len(heads)} 'Reproduction' section headings (want one)"
-    early = [i for i in claims if i < heads[0]]
-    assert not early, f"{nb.name}: claim bookkeeping in cells {early}, before the Reproduction section"
+    if missing:
+        out.append(f"the opening cells do not say: {', '.join(missing)}")
+    if "symbol" not in head and "notation" not in head:
+        out.append("no symbol / notation table at the top")
+    for i, c in enumerate(doc.cells):
+        m = BOOKKEEPING.search(c.source)
+        if m:
+            out.append(f"cell {i} ({c.cell_type}): reproduction bookkeeping {m.group(0)!r} "
+                       "(it belongs in the section's report)")
+    code = "\n".join(c.source for c in doc.cells if c.cell_type == "code"
+                     and "exercise" not in c.metadata.get("tags", []))
+    if not name.startswith("00") and not OBSERVER_DEF.search(code):
+        out.append("no cell defines the observer's step (def ...step/rhs/update/predict...)")
+    return out
+
+
+@pytest.mark.parametrize("nb", LESSONS, ids=lambda p: p.stem)
+def test_lesson_teaches_without_the_reproduction_bookkeeping(nb):
+    """A lesson opens with its learning path and notation, builds its observer in a cell, and
+    holds no metric, claim, rule, verdict, tolerance or printed library source."""
+    problems = lesson_problems(nbformat.read(str(nb), as_version=4), nb.stem)
+    assert not problems, f"{nb.name}: " + "; ".join(problems)
+
+
+def test_lesson_check_catches_bookkeeping_and_a_printed_observer():
+    """Catches the lesson check passing a notebook that records claims or prints source."""
+    from nbformat.v4 import new_markdown_cell
+
+    head = new_markdown_cell("# 09\n**What you will learn** ... **Prerequisites** ... reading time "
+                             "5 min, run time 1 min. **Symbols** ...")
+    good = new_notebook(cells=[head, new_code_cell("def observer_step(x, y):\n    return x")])
+    assert lesson_problems(good, "09_x") == []
+    bad = new_notebook(cells=[head, new_code_cell("print(inspect.getsource(iv.rhs))"),
+                              new_code_cell("rep.claim('P', 'Fig. 1', '', 'm', Rule('m'))")])
+    problems = lesson_problems(bad, "09_x")
+    assert any("'getsource'" in p for p in problems)
+    assert any("'rep.'" in p for p in problems)
+    assert any("observer's step" in p for p in problems)
+
+
+@pytest.mark.parametrize("nb", pipeline.notebooks(ROOT, kinds=("report",)), ids=lambda p: p.stem)
+def test_report_names_its_lesson_and_writes_its_section(nb):
+    """A report says which lesson it reports on and records into the section's folder (the
+    ``Report("<section>", ...)`` whose metrics.json make check compares)."""
+    doc = nbformat.read(str(nb), as_version=4)
+    section = pipeline.section_of(nb.stem)
+    text = "\n".join(c.source for c in doc.cells)
+    assert f"{section}.ipynb" in text, f"{nb.name} does not name its lesson {section}.ipynb"
+    assert f'Report("{section}"' in text, f"{nb.name} does not record into figures/{section}/"
 
 
 def _own_kernel(args):

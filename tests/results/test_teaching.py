@@ -65,3 +65,61 @@ def test_animation_is_a_self_contained_html_player():
 def test_frame_indices_cover_the_run():
     idx = T.frame_indices(101, 5)
     assert idx[0] == 1 and idx[-1] == 101 and np.all(np.diff(idx) > 0)
+
+
+@pytest.mark.parametrize("answer, want, kw, says, never", [
+    (1e-3, 0.0, dict(atol=1e-6, unit="m/s"), "should be zero (within 1e-06 m/s), yours is off by 0.001 m/s",
+     "relative"),                                          # a zero target: absolute error
+    (4, 3, {}, "too high", "relative"),                     # a rank: no "off by 0.33"
+    (2.5, 3, {}, "expected a whole number, got 2.5", "relative"),
+    ([1.0, 2.5, 3.0], [1.0, 2.0, 3.0], dict(unit="rad/s"), "entry 1: too high by 0.5 rad/s (25% of",
+     "entries"),                                           # names the wrong entry, in its unit
+    ({"L1": 1.0, "L2": -2.0}, {"L1": 1.0, "L2": 2.0}, {}, "['L2'] too low by 4 (200% of", "['L1']"),
+    (False, True, {}, "your answer False is not right", "expected True"),
+])
+def test_feedback_diagnoses_without_giving_the_answer_away(answer, want, kw, says, never):
+    """Catches meaningless feedback ("off by 9.1e+298 (relative)" for a zero target, "off by 0.5"
+    for a rank) and feedback that names the expected value or no wrong output."""
+    out = T.check("t.9", answer, want, hint="h", show=False, **kw)
+    assert out.status == T.WRONG
+    assert says in out.message, out.message
+    assert never not in out.message.split("Hint")[0]
+
+
+def test_staged_hints_come_one_per_wrong_attempt_then_stay_on_the_last():
+    """Catches a staged hint list shown all at once (the last hint is often the solution)."""
+    T.ATTEMPTS.pop("t.10", None)
+    hints = ["which states does C measure?", "the (2,1) entry cannot change", "L has no effect there"]
+    seen = [T.check("t.10", 1.0, 2.0, hint=hints, show=False).message.split("Hint: ")[1]
+            for _ in range(4)]
+    assert seen == hints + hints[-1:]
+
+
+def test_a_live_figure_carries_its_initial_state_as_an_image_for_the_exported_page(tmp_path):
+    """Catches a live figure that renders nothing in the offline HTML (no widget manager there):
+    the output must hold a PNG of the initial state, which the export keeps in place of the widget."""
+    import matplotlib.pyplot as plt
+    import nbformat
+    from IPython.utils.capture import capture_output
+    from nbformat.v4 import new_code_cell, new_notebook, new_output
+    from vehicle_observers.results import html
+
+    from IPython.core.interactiveshell import InteractiveShell
+
+    def draw(gain):
+        fig, ax = plt.subplots()
+        ax.plot([0, 1], [0, gain])
+        return fig
+
+    InteractiveShell.instance()   # display() publishes only through a shell
+    with capture_output(display=True) as cap:
+        T.live_figure(draw, gain=T.slider(1.0, 0.0, 2.0, 0.1, "gain"))
+    bundles = [o.data for o in cap.outputs if html.WIDGET_VIEW in o.data]
+    assert len(bundles) == 1 and "image/png" in bundles[0]
+    nb = new_notebook(cells=[new_code_cell("live", outputs=[
+        new_output("display_data", data={k: v for k, v in bundles[0].items()
+                                         if k in (html.WIDGET_VIEW, "image/png", "text/plain")})])])
+    path = tmp_path / "live.ipynb"
+    nbformat.write(nb, str(path))
+    page = html.write_html([path], tmp_path / "html")[0].read_text()
+    assert page.count('src="data:image/png;base64,') == 1

@@ -56,9 +56,28 @@ def exporter():
                         embed_images=True, mathjax_url=MATHJAX_REL)
 
 
+WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
+
+
+def static_widgets(nb):
+    """``nb`` with every widget output that also carries an ``image/png`` (a live figure's
+    initial state, :func:`vehicle_observers.results.teaching.live_figure`) reduced to that
+    image: a page has no widget manager and no saved widget state, so the widget would render
+    as nothing. Returns the number of outputs changed."""
+    n = 0
+    for cell in nb.cells:
+        for out in cell.get("outputs", []):
+            data = out.get("data", {})
+            if WIDGET_VIEW in data and "image/png" in data:
+                del data[WIDGET_VIEW]
+                n += 1
+    return n
+
+
 def write_html(executed: list[Path], out_dir: Path) -> list[Path]:
     """Render executed notebooks to ``out_dir/<notebook>.html`` (input cells kept, image
-    outputs embedded) and copy MathJax beside them. Raises ``FileNotFoundError`` naming a
+    outputs embedded, live figures as their initial image: :func:`static_widgets`) and copy
+    MathJax beside them. Raises ``FileNotFoundError`` naming a
     missing executed copy, ``ValueError`` naming a page that would fetch an external URL."""
     import nbformat
 
@@ -71,8 +90,9 @@ def write_html(executed: list[Path], out_dir: Path) -> list[Path]:
     for nb in executed:
         if not nb.exists():
             raise FileNotFoundError(f"executed notebook {nb} not found (run the pipeline first)")
-        body, _ = exp.from_notebook_node(nbformat.read(str(nb), as_version=4),
-                                         resources={"metadata": {"name": nb.stem}})
+        node = nbformat.read(str(nb), as_version=4)
+        static_widgets(node)
+        body, _ = exp.from_notebook_node(node, resources={"metadata": {"name": nb.stem}})
         ext = external_urls(body)
         if ext:
             raise ValueError(f"{nb.name}: the HTML page would fetch {len(ext)} external "

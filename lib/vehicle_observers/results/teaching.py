@@ -69,17 +69,40 @@ def _is_empty(answer) -> bool:
         isinstance(answer, (tuple, list)) and any(a is None or a is Ellipsis for a in answer))
 
 
-def _compare(got, want, rtol: float, atol: float) -> tuple[bool, str]:
-    if isinstance(want, (bool, np.bool_, str)) or want is None:
-        return got == want, f"expected {want!r}, got {got!r}"
+def _is_count(want) -> bool:
+    """An integer target (a rank, a count, an index): Python or numpy integers, not floats."""
+    if isinstance(want, (bool, np.bool_)):
+        return False
+    if isinstance(want, (int, np.integer)):
+        return True
+    a = np.asarray(want)
+    return a.dtype.kind in "iu"
+
+
+def _compare(got, want, rtol: float, atol: float, unit: str = "") -> tuple[bool, str]:
+    """``(correct, diagnosis)``. The diagnosis says what is wrong without giving the expected
+    value away: which key or entries, by how much in the answer's own unit (absolute where the
+    expected value is zero, relative elsewhere), too high or too low for a whole number, and
+    what was expected of a boolean or a text."""
+    u = f" {unit}" if unit else ""
+    if isinstance(want, (bool, np.bool_)):
+        if isinstance(got, (int, float, np.integer, np.floating)) and got in (0, 1):
+            got = bool(got)   # 1 / 0 for True / False
+        if not isinstance(got, (bool, np.bool_)):
+            return False, f"expected True or False, got {type(got).__name__} {got!r:.40}"
+        return bool(got) == bool(want), f"your answer {bool(got)} is not right"
+    if isinstance(want, str) or want is None:
+        return got == want, f"your answer {got!r:.40} is not the expected {type(want).__name__}"
     if isinstance(want, dict):
         if not isinstance(got, dict) or set(got) != set(want):
-            return False, f"expected a dict with keys {sorted(want)}"
+            keys = sorted(map(str, want))
+            return False, f"expected a dict with keys {keys}"
+        bad = []
         for k in want:
-            ok, why = _compare(got[k], want[k], rtol, atol)
+            ok, why = _compare(got[k], want[k], rtol, atol, unit)
             if not ok:
-                return False, f"[{k!r}] {why}"
-        return True, ""
+                bad.append(f"[{k!r}] {why}")
+        return (not bad), "; ".join(bad[:3]) + (f" (and {len(bad) - 3} more keys)" if len(bad) > 3 else "")
     try:
         g = np.asarray(got, dtype=float)
         w = np.asarray(want, dtype=float)
@@ -89,37 +112,69 @@ def _compare(got, want, rtol: float, atol: float) -> tuple[bool, str]:
         return False, f"expected shape {w.shape}, got {g.shape}"
     if not np.all(np.isfinite(g)):
         return False, "the answer has NaN or infinite entries"
-    ok = bool(np.allclose(g, w, rtol=rtol, atol=atol))
-    if ok:
+    close = np.isclose(g, w, rtol=rtol, atol=atol)
+    if bool(np.all(close)):
         return True, ""
-    err = np.max(np.abs(g - w) / np.maximum(np.abs(w), atol if atol > 0 else 1e-300))
-    return False, f"off by {err:.2g} (relative) from the expected value"
+    wrong = np.argwhere(~close)
+    where = ("" if w.ndim == 0 else
+             f"entr{'y' if len(wrong) == 1 else 'ies'} "
+             + ", ".join(str(tuple(int(i) for i in ix)) if w.ndim > 1 else str(int(ix[0]))
+                         for ix in wrong[:4]) + (" ..." if len(wrong) > 4 else "") + ": ")
+    if _is_count(want):
+        gw = g[~close]
+        if not np.all(gw == np.round(gw)):
+            return False, f"{where}expected a whole number, got {gw.ravel()[0]:g}"
+        direction = "too high" if np.all(gw > w[~close]) else "too low" if np.all(gw < w[~close]) else "off"
+        return False, f"{where}{direction}"
+    d = np.abs(g - w)[~close]
+    ww = np.abs(w)[~close]
+    if np.any(ww == 0):   # a zero target: only an absolute error means something
+        return False, f"{where}should be zero (within {max(atol, 0.0):g}{u}), yours is off by {d.max():.3g}{u}"
+    rel = float(np.max(d / ww))
+    sign = "too high" if np.all((g - w)[~close] > 0) else "too low" if np.all((g - w)[~close] < 0) else "off"
+    return False, f"{where}{sign} by {d.max():.3g}{u} ({rel:.0%} of the expected size)"
 
 
-def check(key: str, answer, expected, *, hint: str, rtol: float = 1e-3, atol: float = 0.0,
-          show: bool = True) -> Outcome | None:
+#: ``{exercise key: wrong attempts so far}`` (staged hints, :func:`check`)
+ATTEMPTS: dict[str, int] = {}
+
+
+def check(key: str, answer, expected, *, hint, rtol: float = 1e-3, atol: float = 0.0,
+          unit: str = "", show: bool = True) -> Outcome | None:
     """Grade exercise ``key`` (e.g. ``"03.2"``): ``answer`` against ``expected``.
 
     ``answer`` may be a value, an array, a dict of them, or a callable taking no argument (called
     here, so an exception in the student's code becomes a ``not yet`` line with its message).
     ``...``/``None`` (also inside a tuple) means the stub is still empty. Numbers are compared with
-    ``numpy.allclose(rtol, atol)``; bools and strings exactly. ``hint``: one sentence shown when
-    the answer is wrong. Displays one line and returns ``None`` in a notebook (``show=True``),
-    else the :class:`Outcome`; the outcome is also kept in :data:`RESULTS`."""
+    ``numpy.isclose(rtol, atol)``; bools and strings exactly. A wrong answer gets a diagnosis
+    that gives nothing away (:func:`_compare`: which key or entries are wrong, too high or too
+    low, by how much in ``unit``) and a hint: ``hint`` is one sentence or a list of staged hints,
+    the next one shown at each wrong attempt. Displays one line and returns ``None`` in a
+    notebook (``show=True``), else the :class:`Outcome`; the outcome is also kept in
+    :data:`RESULTS`."""
+    hints = [hint] if isinstance(hint, str) else list(hint)
     if callable(answer):
         try:
             answer = answer()
         except NotImplementedError:
             answer = None
         except Exception as exc:  # the student's code: report it, never stop Run All
-            out = Outcome(key, WRONG, f"your code raised {type(exc).__name__}: {exc}. Hint: {hint}")
+            out = Outcome(key, WRONG, f"your code raised {type(exc).__name__}: {exc}. "
+                                      f"Hint: {_next_hint(key, hints)}")
             return _finish(out, show)
     if _is_empty(answer):
         out = Outcome(key, EMPTY, "fill in the cell above (replace ...), then run it again")
     else:
-        ok, why = _compare(answer, expected, rtol, atol)
-        out = Outcome(key, CORRECT, "correct") if ok else Outcome(key, WRONG, f"{why}. Hint: {hint}")
+        ok, why = _compare(answer, expected, rtol, atol, unit)
+        out = (Outcome(key, CORRECT, "correct") if ok
+               else Outcome(key, WRONG, f"{why}. Hint: {_next_hint(key, hints)}"))
     return _finish(out, show)
+
+
+def _next_hint(key: str, hints: list[str]) -> str:
+    n = ATTEMPTS.get(key, 0)
+    ATTEMPTS[key] = n + 1
+    return hints[min(n, len(hints) - 1)] if hints else "read the section above again"
 
 
 def _finish(out: Outcome, show: bool):
@@ -151,6 +206,8 @@ def live_figure(draw: Callable, **sliders):
     """Show ``draw(**values)`` (a function that builds and returns a matplotlib figure) under
     the given ipywidgets ``sliders`` (name -> widget, e.g. from :func:`slider`), redrawn on every
     move. Shown at once (also under papermill, with the initial values); returns ``None``.
+    The output also carries the initial figure as a PNG, which a page without a widget
+    manager (the exported HTML) shows instead of nothing.
 
     The figure is shown as a PNG inside an ``Output`` widget, so the image changes in the page
     when a slider moves (what the browser test checks)."""
@@ -159,15 +216,19 @@ def live_figure(draw: Callable, **sliders):
     from IPython.display import display
 
     out = w.Output()
+    first: dict[str, str] = {}
 
     def redraw(**values):
         with out:
             out.clear_output(wait=True)
             fig = draw(**values)
             if fig is not None:
+                if not first:   # the initial state, also as a static image (see below)
+                    first["png"] = _png_base64(fig)
                 display(fig)
                 plt.close(fig)
 
+    redraw(**{k: s.value for k, s in sliders.items()})
     controls = w.interactive(redraw, **sliders)
     controls.children[-1].layout.display = "none"  # interactive's own (empty) output area
     box = w.VBox([w.HBox(list(controls.children[:-1])), out],
@@ -177,9 +238,22 @@ def live_figure(draw: Callable, **sliders):
     # instead of the widget's repr
     bundle["text/plain"] = (f"[live figure with sliders {', '.join(sliders)}: open the notebook "
                             "in JupyterLab with a running kernel to use it]")
+    # the initial state as a PNG in the same output: JupyterLab shows the live widget, a page
+    # without a widget manager (the exported HTML, :func:`vehicle_observers.results.html.static_widgets`)
+    # shows this image
+    if first:
+        bundle["image/png"] = first["png"]
     display(bundle, raw=True)
-    redraw(**{k: s.value for k, s in sliders.items()})
     return None
+
+
+def _png_base64(fig) -> str:
+    import base64
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 # ----------------------------------------------------------------------- animations ----------
@@ -203,11 +277,12 @@ def animation(fig, update: Callable[[int], object], frames: int, interval_ms: in
     return HTML(_offline_player(page))
 
 
-#: the player's button icons as text glyphs (matplotlib's page loads Font Awesome from a CDN,
-#: which an offline page or a blocked network would leave as blank buttons)
-_ICONS = {"fa-play": "\u25b6", "fa-pause": "\u23f8", "fa-fast-backward": "\u23ee",
-          "fa-fast-forward": "\u23ed", "fa-step-backward": "\u25c0\u2502",
-          "fa-step-forward": "\u2502\u25b6", "fa-minus": "\u2212", "fa-plus": "+"}
+#: the player's button icons as plain ASCII text: matplotlib's page loads Font Awesome from a
+#: CDN, which an offline page or a blocked network leaves as blank buttons, and the Unicode
+#: media symbols (U+23EE...) are missing from the fonts of a plain Chromium (blank boxes)
+_ICONS = {"fa-play": ">", "fa-pause": "||", "fa-fast-backward": "|<<",
+          "fa-fast-forward": ">>|", "fa-step-backward": "|<",
+          "fa-step-forward": ">|", "fa-minus": "-", "fa-plus": "+"}
 
 
 def _offline_player(page: str) -> str:
@@ -215,8 +290,8 @@ def _offline_player(page: str) -> str:
     import re
 
     page = re.sub(r"<link[^>]*font-awesome[^>]*>", "", page)
-    css = "".join(f'.anim-buttons .{k}:before{{content:"{v}";font-style:normal}}'
-                  for k, v in _ICONS.items())
+    css = "".join(f'.anim-buttons .{k}:before{{content:"{v}";font-style:normal;'
+                  f'font-family:monospace;font-weight:bold}}' for k, v in _ICONS.items())
     return f"<style>{css}</style>\n{page}"
 
 
