@@ -267,7 +267,8 @@ def figure_data(fig) -> dict:
         for c in ax.collections:
             if not c.get_visible():
                 continue
-            d = {"type": type(c).__name__, "label": c.get_label() if not c.get_label().startswith("_") else "",
+            label = c.get_label()
+            d = {"type": type(c).__name__, "label": "" if label.startswith("_") else label,
                  "facecolors": sorted({_hex(x) for x in np.atleast_2d(c.get_facecolor())})[:10],
                  "edgecolors": sorted({_hex(x) for x in np.atleast_2d(c.get_edgecolor())})[:10]}
             arr = c.get_array()
