@@ -1,16 +1,13 @@
-"""The checkers of notebook 00's exercises accept a worked solution, reject a wrong answer (the
+"""The checkers of the start page's exercises accept a worked solution, reject a wrong answer (the
 mistake the hint names) and report an empty stub as not attempted."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from vehicle_observers import estimation as EST
-from vehicle_observers.estimation import kalman_runs as KR
 from vehicle_observers.models.vehicle import load_vehicle
 from vehicle_observers.results.teaching import CORRECT, EMPTY, WRONG
 from vehicle_observers_papers.course import exercises as ex
-from vehicle_observers_papers.course import families
 
 
 def _check(fn, *args):
@@ -55,52 +52,51 @@ def test_check_1_expected_is_the_paper_form_13_not_the_course_form():
 
 # ------------------------------------------------------------------ exercise 2 ---------------
 
-@pytest.fixture(scope="module")
-def manoeuvre():
-    log = families.common_manoeuvre(0)
-    return log, KR.kalman_tuning(log, load_vehicle("yacine2015"))[0]
+def observable(veh, v_x):
+    p = veh.params
+    rear, front = veh.C_r * p.a_r, veh.C_f * p.a_f
+    return bool(abs(rear - front) > 1e-9 * (rear + front))
 
 
-def compare(names, log, vehicle, tuning, transient=families.TRANSIENT_S):
-    veh = load_vehicle(vehicle)
-    keep = log.t - log.t[0] >= transient
-    out = {}
-    for n in names:
-        est = EST.get(n).run(log, veh, tuning=tuning)
-        out[n] = float(np.sqrt(np.mean((est.columns["vy_mps"][keep] - log.vy[keep]) ** 2)))
-    return {"rmse": out, "best": min(out, key=out.get)}
+def test_check_2_accepts_the_derivation_and_rejects_always_observable():
+    """Catches a checker that cannot tell the derivation (a21 != 0) from "always True": the
+    neutral-steer car must come out unobservable."""
+    assert _check(ex.check_2, observable) == CORRECT
+    assert _check(ex.check_2, lambda veh, vx: True) == WRONG
+    assert _check(ex.check_2, lambda veh, vx: ...) == EMPTY
 
 
-def test_check_2_accepts_the_scored_pair_and_rejects_a_wrong_window(manoeuvre):
-    log, tun = manoeuvre
-    assert _check(ex.check_2, compare, log, "yacine2015", tun) == CORRECT
-    assert _check(ex.check_2, lambda *a: compare(*a, transient=0.0), log, "yacine2015", tun) == WRONG
-    assert _check(ex.check_2, lambda *a: None, log, "yacine2015", tun) == EMPTY
-
-
-def test_check_2_expected_winner_is_the_lower_rmse(manoeuvre):
-    log, tun = manoeuvre
-    want = ex.expected_2(ex.PAIRS[0], log, "yacine2015", tun)
-    assert want["best"] == min(want["rmse"], key=want["rmse"].get)
-    # the EKF with its a_y and yaw-rate feedback beats the open-loop bicycle on its own model
-    assert want["rmse"]["ekf"] < want["rmse"]["open-loop-linear"]
+def test_check_2_expected_from_the_observability_matrix_with_a_neutral_steer_car():
+    """Catches a wrong neutral-steer construction: C_r l_r = C_f l_f to round-off, the shipped
+    cars far from it, and the other dynamics unchanged (same C_f, mass, inertia)."""
+    cars = ex.cars_2()
+    n, y = cars["neutral steer"], cars["yacine2015"]
+    assert n.C_r * n.params.a_r == pytest.approx(n.C_f * n.params.a_f, rel=1e-12)
+    assert (n.C_f, n.params.m, n.params.I_z) == (y.C_f, y.params.m, y.params.I_z)
+    assert {k: ex.expected_2(v, 10.0) for k, v in cars.items()} == {
+        "yacine2015": True, "revs250lm": True, "neutral steer": False}
 
 
 # ------------------------------------------------------------------ exercise 3 ---------------
 
-def usable(columns, causal_only, interval_only):
-    return sorted(n for n, s in EST.available().items() if set(s.needs) <= set(columns)
-                  and (s.causal or not causal_only) and (s.interval or not interval_only))
+def steady_vy(veh, v_x):
+    p = veh.params
+    L = p.a_f + p.a_r
+    K = p.m / L * (p.a_r / veh.C_f - p.a_f / veh.C_r)       # understeer gradient
+    return v_x * (p.a_r - p.m * p.a_f * v_x ** 2 / (veh.C_r * L)) / (L + K * v_x ** 2)
 
 
-def test_check_3_accepts_the_registry_filter_and_rejects_ignoring_causality():
-    assert _check(ex.check_3, usable) == CORRECT
-    assert _check(ex.check_3, lambda c, causal, i: usable(c, False, i)) == WRONG
-    assert _check(ex.check_3, lambda *a: None) == EMPTY
+def test_check_3_accepts_the_textbook_steady_state_and_rejects_the_kinematic_one():
+    """The textbook closed form (understeer gradient K) against python-control's DC gain: a
+    second derivation agrees; the kinematic v_y = l_r v_x / L (no tyre slip) fails at speed."""
+    assert _check(ex.check_3, steady_vy) == CORRECT
+    assert _check(ex.check_3, lambda veh, vx: vx * veh.params.a_r / (veh.params.a_r + veh.params.a_f)) == WRONG
+    assert _check(ex.check_3, lambda veh, vx: None) == EMPTY
 
 
-def test_check_3_known_answer_for_the_minimal_sensor_set():
-    """Gyro, steering and speed only, online, guaranteed bounds: the two interval observers."""
-    assert ex.expected_3(ex.BASE, True, True) == "interval-coordinates, interval-ifqir2017"
-    assert "ts-yacine2015" not in ex.expected_3(ex.BASE + ("ay_mps2",), False, False)
-    assert "ts-yacine2015" in ex.expected_3(ex.BASE + ("yL_m", "psiL_rad"), False, False)
+def test_check_3_sign_change_at_the_speed_of_the_formula():
+    """Catches a wrong A or B: v_y,ss changes sign at v_x = sqrt(C_r l_r L / (m l_f))."""
+    veh = load_vehicle("yacine2015")
+    p = veh.params
+    v0 = np.sqrt(veh.C_r * p.a_r * (p.a_f + p.a_r) / (p.m * p.a_f))
+    assert ex.expected_3(veh, 0.99 * v0) > 0 > ex.expected_3(veh, 1.01 * v0)

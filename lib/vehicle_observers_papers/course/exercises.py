@@ -1,26 +1,27 @@
-"""Checkers of notebook 00's exercises (:func:`vehicle_observers.results.teaching.check`).
+"""Checkers of the start page's exercises (:func:`vehicle_observers.results.teaching.check`).
 
-Each checker computes the expected answer itself, by a route other than the worked solution,
-and calls the student's function on more than one input, so a hard-coded number fails:
+Each checker computes the expected answer itself, by a route other than the worked solution
+(``notebooks/solutions/00_start_here_solutions.ipynb``), and calls the student's function on
+more than one input, so a hard-coded number fails:
 
 1. :func:`check_1` - the yaw-drift model with relaxation (Yacine 2015 eqs. (1), (4), (6)) written
    in the course notation. Expected: the paper's own transformed form (13) in the paper's
    symbols (:func:`vehicle_observers.models.lateral.rhs_transformed`, state
    ``x = [v_y, psi_dot, (F_f + F_r)/m, (a_f F_f - a_r F_r)/I_z]``, relaxation length ``r``),
    compared through the change of coordinates at random states of two cars.
-2. :func:`check_2` - two registered estimators on the common manoeuvre: their ``v_y`` RMSE
-   after the start transient and the better one. Expected: each estimator run by
-   :meth:`EstimatorSpec.estimate` and scored by :func:`vehicle_observers.estimation.score`, for
-   two pairs of estimators.
-3. :func:`check_3` - which registered estimators fit a sensor set (and are causal, or give
-   guaranteed bounds). Expected: each estimator's own check (:meth:`EstimatorSpec.check`) on a
-   log that holds exactly those columns, for three sensor sets.
+2. :func:`check_2` - is ``v_y`` observable from the yaw rate alone through the linear bicycle?
+   A derivation (the observability matrix of a 2-state system with ``C = [0 1]``) and a design
+   decision (which car needs another sensor). Expected: the rank of python-control's
+   observability matrix, for the shipped cars and a neutral-steer one.
+3. :func:`check_3` - the steady-state ``v_y`` of the linear bicycle for a held steering angle,
+   derived by hand (the 2x2 equilibrium). Expected: python-control's DC gain of the same
+   bicycle, at several speeds and two cars.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from vehicle_observers import estimation as EST
@@ -109,97 +110,110 @@ def check_1(rhs_course):
 
     want = np.vstack([_paper_form(r, c.params) for r, c in zip(rows, cars)])
     return check("00.1", answer, want, rtol=1e-6, atol=1e-9,
-                 hint="the paper's r in (6) is the relaxation length (course sigma_f, sigma_r) and "
-                      "its psi_dot is the yaw rate r; slips (4): alpha_f = delta - (v_y + l_f r)/v_x, "
-                      "alpha_r = -(v_y - l_r r)/v_x")
+                 hint=["two of the paper's letters mean something else here: look up psi_dot and "
+                       "r_i in the notation table",
+                       "the slips (4) use a_f, a_r: the course's l_f, l_r; check the sign of the "
+                       "yaw-rate term at each axle",
+                       "the relaxation (6) divides by the relaxation length, not by the yaw rate"])
 
 
-# ------------------------------------------------------------------ exercise 2 ---------------
+# ------------------------------------------------------------------ exercises 2, 3 -----------
 
-#: the pairs of registered estimators the student's function is run on
-PAIRS = (("ekf", "open-loop-linear"), ("ts-yacine2015", "interval-ifqir2017"))
-
-
-def expected_2(names, log: DriveLog, vehicle, tuning) -> dict:
-    """``{"rmse": {name: v_y RMSE after the start transient [m/s]}, "best": name}`` through
-    :meth:`EstimatorSpec.estimate` and :func:`vehicle_observers.estimation.score`."""
-    veh = load_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
-    mask = families.score_mask(log)
-    sc = {n: EST.score(EST.get(n).estimate(log, veh, tuning=tuning), log, mask)["rmse_vy"]
-          for n in names}
-    return {"rmse": sc, "best": min(sc, key=sc.get)}
+def linear_bicycle(veh, v_x: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)`` of the linear single-track model, state ``[v_y, r]``, input the road-wheel
+    angle ``delta`` [rad], at speed ``v_x`` [m/s], with the vehicle file's axle cornering
+    stiffnesses ``C_f``, ``C_r`` [N/rad] (course notation; Ifqir 2017 (3) with ``xi`` nominal)."""
+    p = veh.params
+    cf, cr, lf, lr, m, iz = veh.C_f, veh.C_r, p.a_f, p.a_r, p.m, p.I_z
+    A = np.array([[-(cf + cr) / (m * v_x), (cr * lr - cf * lf) / (m * v_x) - v_x],
+                  [(cr * lr - cf * lf) / (iz * v_x), -(cr * lr ** 2 + cf * lf ** 2) / (iz * v_x)]])
+    B = np.array([[cf / m], [cf * lf / iz]])
+    return A, B
 
 
-def check_2(compare, log: DriveLog, vehicle, tuning):
-    """Exercise 2: ``compare(names, log, vehicle, tuning) -> {"rmse": {name: m/s}, "best":
-    name}`` on the common manoeuvre for each pair of :data:`PAIRS`."""
+def neutral_steer(vehicle: str = "yacine2015"):
+    """A shipped car made neutral-steer (rear stiffness set so that ``C_r l_r = C_f l_f``), a
+    case the exercises use to tell a derivation from a guess."""
+    import dataclasses
+
+    veh = load_vehicle(vehicle)
+    p = veh.params
+    k = (veh.C_f * p.a_f) / (veh.C_r * p.a_r)
+    tr = dataclasses.replace(p.tire_r, D=p.tire_r.D * k)   # cornering stiffness B C D scaled by k
+    return dataclasses.replace(veh, params=dataclasses.replace(p, tire_r=tr), name=veh.name + " (neutral)")
+
+
+def cars_2():
+    """The cars of exercise 2: the two shipped vehicle files and a neutral-steer one."""
+    return {"yacine2015": load_vehicle("yacine2015"), "revs250lm": load_vehicle("revs250lm"),
+            "neutral steer": neutral_steer()}
+
+
+def expected_2(veh, v_x: float) -> bool:
+    """Observability of ``[v_y, r]`` from ``y = r``: rank of ``control.obsv(A, C) == 2``."""
+    import control
+
+    A, _ = linear_bicycle(veh, v_x)
+    O = control.obsv(A, np.array([[0.0, 1.0]]))
+    return bool(np.linalg.matrix_rank(O, tol=1e-9 * np.abs(O).max()) == 2)
+
+
+def check_2(observable):
+    """Exercise 2: ``observable(veh, v_x) -> bool``: can ``v_y`` be reconstructed from the yaw
+    rate alone through the linear bicycle at speed ``v_x``? Three cars at 10 m/s."""
+    cars = cars_2()
+
     def answer():
         got = {}
-        for pair in PAIRS:
-            g = compare(pair, log, vehicle, tuning)
+        for name, veh in cars.items():
+            g = observable(veh, 10.0)
             if g is None or g is Ellipsis:
                 return None
-            got[" vs ".join(pair)] = g
+            got[name] = g
         return got
 
-    want = {" vs ".join(p): expected_2(p, log, vehicle, tuning) for p in PAIRS}
-    return check("00.2", answer, want, rtol=1e-6,
-                 hint=f"score after the first {families.TRANSIENT_S:g} s only (t - t[0] >= "
-                      f"{families.TRANSIENT_S:g}); the RMSE is sqrt(mean((v_y_hat - v_y)^2)); "
-                      "run each estimator with the shared Kalman tuning")
+    want = {name: expected_2(veh, 10.0) for name, veh in cars.items()}
+    return check("00.2", answer, want,
+                 hint=["write the 2x2 observability matrix O = [C; C A] with C = [0 1]: which "
+                       "entry of A appears in its first column?",
+                       "O is singular exactly when that entry is zero: when is "
+                       "C_r l_r - C_f l_f zero?",
+                       "compare C_r l_r with C_f l_f for each car (veh.C_r, veh.params.a_r, ...); "
+                       "a tolerance relative to their size, not '== 0'"])
 
 
-# ------------------------------------------------------------------ exercise 3 ---------------
-
-BASE = ("t_s", "vx_mps", "delta_roadwheel_rad", "yaw_rate_radps")
-#: the sensor sets of the exercise: (columns, causal only, guaranteed bounds only)
-CASES = {
-    "gyro, steering, speed; online, guaranteed bounds": (BASE, True, True),
-    "+ accelerometer; online": (BASE + ("ay_mps2",), True, False),
-    "+ camera; online or offline": (BASE + ("yL_m", "psiL_rad"), False, False),
-}
-
-_ATTR = {"t_s": "t", "vx_mps": "vx", "delta_roadwheel_rad": "delta", "yaw_rate_radps": "yaw_rate",
-         "ay_mps2": "ay", "yL_m": "yL", "psiL_rad": "psiL"}
+#: speeds [m/s] of exercise 3
+SPEEDS_3 = (8.0, 17.0, 30.0)
 
 
-def _log_with(columns) -> DriveLog:
-    """A 20-row log holding exactly ``columns`` (of :data:`_ATTR`)."""
-    n = 20
-    full = {"t": np.arange(n) * 0.01, "vx": np.full(n, 10.0), "delta": np.zeros(n),
-            "yaw_rate": np.zeros(n), "ay": np.zeros(n), "yL": np.zeros(n), "psiL": np.zeros(n)}
-    return DriveLog(**{a: (v if any(_ATTR[c] == a for c in columns) else None)
-                       for a, v in full.items()}, source="sensor set")
+def expected_3(veh, v_x: float) -> float:
+    """Steady-state ``v_y`` [m/s] per radian of road-wheel angle: the DC gain of the linear
+    bicycle from ``delta`` to ``v_y`` (python-control)."""
+    import control
+
+    A, B = linear_bicycle(veh, v_x)
+    return float(np.squeeze(control.dcgain(control.ss(A, B, np.array([[1.0, 0.0]]), 0.0))))
 
 
-def expected_3(columns, causal_only: bool, interval_only: bool) -> str:
-    """Names (sorted, comma-separated) of the registered estimators whose own check accepts a
-    log with exactly ``columns``, causal if ``causal_only``, with bounds if ``interval_only``."""
-    log = _log_with(columns)
-    ok = []
-    for n, spec in EST.available().items():
-        try:
-            spec.check(log)
-        except LogFormatError:
-            continue
-        if (spec.causal or not causal_only) and (spec.interval or not interval_only):
-            ok.append(n)
-    return ", ".join(sorted(ok))
+def check_3(steady_vy):
+    """Exercise 3: ``steady_vy(veh, v_x) -> v_y / delta`` [m/s per rad] of the linear bicycle in
+    steady cornering, at three speeds for two cars."""
+    cars = {"yacine2015": load_vehicle("yacine2015"), "revs250lm": load_vehicle("revs250lm")}
 
-
-def check_3(usable):
-    """Exercise 3: ``usable(columns, causal_only, interval_only) -> list of registry names``,
-    for each sensor set of :data:`CASES`."""
     def answer():
         got = {}
-        for label, (cols, c, i) in CASES.items():
-            g = usable(set(cols), c, i)
-            if g is None or g is Ellipsis:
-                return None
-            got[label] = ", ".join(sorted(g))
+        for name, veh in cars.items():
+            for vx in SPEEDS_3:
+                g = steady_vy(veh, vx)
+                if g is None or g is Ellipsis:
+                    return None
+                got[f"{name} at {vx:g} m/s"] = g
         return got
 
-    want = {label: expected_3(*case) for label, case in CASES.items()}
-    return check("00.3", answer, want,
-                 hint="an estimator fits when every column of spec.needs is in the set; then "
-                      "filter on spec.causal and spec.interval")
+    want = {f"{name} at {vx:g} m/s": expected_3(veh, vx) for name, veh in cars.items()
+            for vx in SPEEDS_3}
+    return check("00.3", answer, want, rtol=1e-6, unit="m/s per rad",
+                 hint=["in steady cornering dv_y/dt = dr/dt = 0: solve A x + B delta = 0 for x",
+                       "a 2x2 system: Cramer's rule or np.linalg.solve; v_y is the first entry",
+                       "check the sign at high speed: for an understeering car v_y / delta turns "
+                       "negative above a speed you can compute from the same formula"])
