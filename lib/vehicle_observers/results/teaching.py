@@ -129,7 +129,8 @@ def _compare(got, want, rtol: float, atol: float, unit: str = "") -> tuple[bool,
     d = np.abs(g - w)[~close]
     ww = np.abs(w)[~close]
     if np.any(ww == 0):   # a zero target: only an absolute error means something
-        return False, f"{where}should be zero (within {max(atol, 0.0):g}{u}), yours is off by {d.max():.3g}{u}"
+        return False, (f"{where}should be zero (within {max(atol, 0.0):g}{u}), yours is off by "
+                       f"{d.max():.3g}{u}")
     rel = float(np.max(d / ww))
     sign = "too high" if np.all((g - w)[~close] > 0) else "too low" if np.all((g - w)[~close] < 0) else "off"
     return False, f"{where}{sign} by {d.max():.3g}{u} ({rel:.0%} of the expected size)"
