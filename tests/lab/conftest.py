@@ -7,7 +7,7 @@ import pytest
 from labkit import parameterised_copies, start_lab, stop
 from vehicle_observers.results import pipeline
 
-NOTEBOOKS = [p.stem for p in pipeline.notebooks()]
+NOTEBOOKS = [p.stem for p in pipeline.notebooks(kinds=("lesson",))]   # what a student opens
 
 
 @pytest.fixture(scope="session")

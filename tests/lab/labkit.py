@@ -196,11 +196,17 @@ def run_in_kernel(lab: Lab, kernel_id: str, sources: list[str], timeout: float =
 
 
 def saved_figures(figures_dir: Path, name: str) -> list[str] | None:
-    """PNG figures the run of ``name`` listed in its metrics.json (None if it wrote none)."""
-    mj = figures_dir / name / "metrics.json"
-    if not mj.exists():
-        return None
-    return sorted(f[:-4] for f in json.loads(mj.read_text())["files"] if f.endswith(".png"))
+    """PNG figures the run of ``name`` saved: a report's are listed in its metrics.json, a
+    lesson's in ``<section>/lesson/figure_data.json`` (None if it wrote neither: the run did
+    not get that far)."""
+    section = pipeline.section_of(name)
+    mj = figures_dir / section / "metrics.json"
+    if name.endswith("_report") or (mj.exists() and not (figures_dir / section / "lesson").exists()):
+        if not mj.exists():
+            return None
+        return sorted(f[:-4] for f in json.loads(mj.read_text())["files"] if f.endswith(".png"))
+    fd = figures_dir / section / "lesson" / "figure_data.json"
+    return sorted(json.loads(fd.read_text())) if fd.exists() else None
 
 
 def lab_problems(name: str, errors: list[str], n_images: int, figures: list[str] | None,
@@ -209,7 +215,8 @@ def lab_problems(name: str, errors: list[str], n_images: int, figures: list[str]
     than saved figures, no metrics.json, widget error placeholders."""
     problems = [f"{name}: error output: {e}" for e in errors]
     if figures is None:
-        problems.append(f"{name}: wrote no metrics.json (the run did not reach rep.write())")
+        problems.append(f"{name}: saved no figure record (metrics.json of a report, figure_data.json "
+                        "of a lesson): the run did not get that far")
     elif n_images < len(figures):
         problems.append(f"{name}: {n_images} rendered images for {len(figures)} saved figures "
                         f"({', '.join(figures)})")
@@ -416,7 +423,7 @@ def run_in_lab(context, lab: Lab, name: str, figures_dir: Path, shots: Path,
     import re
     import shutil
 
-    shutil.rmtree(figures_dir / name, ignore_errors=True)  # no figures left from an earlier run
+    shutil.rmtree(figures_dir / pipeline.section_of(name), ignore_errors=True)  # none left from an earlier run
     t0 = time.monotonic()
     page = context.new_page()
     page.set_default_timeout(120_000)

@@ -43,7 +43,8 @@ def test_lab_problems():
         "04: 1 rendered images for 2 saved figures (a, b)",
         "04: widget error placeholder: Error displaying widget"]
     assert lab_problems("04", [], 0, None) == [
-        "04: wrote no metrics.json (the run did not reach rep.write())"]
+        "04: saved no figure record (metrics.json of a report, figure_data.json of a lesson): the run "
+        "did not get that far"]
 
 
 def test_xdist_groups_share_a_worker(tmp_path):

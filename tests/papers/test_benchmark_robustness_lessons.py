@@ -45,3 +45,27 @@ def test_worked_monte_carlo_is_seeded_and_grows_with_the_stiffness_error():
 def test_readable_tables_rename_and_keep_order():
     rows, cols = L7.readable([{"observer": "ekf", "rmse_vy": 0.2, "x": 1}], ["observer", "rmse_vy"])
     assert cols == ["observer", "v_y RMSE [m/s]"] and rows == [{"observer": "ekf", "v_y RMSE [m/s]": 0.2}]
+
+
+def test_numpy_ekf_is_the_compiled_filter_and_its_update_is_filterpys():
+    """Catches a readable twin that drifted from the kernel: the numpy EKF (predict with the RK4
+    step, Joseph update) equals ``K.ekf`` on 5 s of the real log, and one Joseph update equals
+    filterpy's ``ExtendedKalmanFilter.update`` from the same prior."""
+    import numpy as np
+    from vehicle_observers.baselines import kalman as K
+    from vehicle_observers.data.logs import load_revs
+    from vehicle_observers_papers.benchmark_study import lesson as BL
+    from vehicle_observers_papers.leanza_2021 import constants as rv
+
+    log = load_revs()
+    log = log.segment(log.t[0], log.t[0] + 5.0)
+    tun = K.KalmanTuning()
+    X, P = BL.numpy_ekf(log, rv.params, tun)
+    np.testing.assert_allclose(X, K.ekf(log, rv.params, tun).X, rtol=0, atol=1e-10)
+    R = np.diag([tun.R_r, tun.R_ay])
+    inp = K.prepare(log)
+    y = np.array([inp.yr[50], inp.ay[50]])
+    mine = BL.joseph_update(X[49], P, y, inp.delta[50], inp.vx[50], rv.params, R)
+    theirs = BL.filterpy_update(X[49], P, y, inp.delta[50], inp.vx[50], rv.params, R)
+    np.testing.assert_allclose(mine[0], theirs[0], atol=1e-12)
+    np.testing.assert_allclose(mine[1], theirs[1], atol=1e-12)

@@ -36,22 +36,7 @@ def test_check_1_scalar_update_against_filterpy():
     assert _status("07.1") == teaching.EMPTY
 
 
-def test_check_2_explained_share():
-    rng = np.random.default_rng(0)
-    ref = rng.normal(size=500)
-    pairs = [(ref, 0.9 * ref), (ref[:100], np.zeros(100))]
-    # known answers: 1 - 0.01 for a 10 % scale error, 0 for v_y = 0
-    assert ex.explained_share(*pairs[0]) == pytest.approx(0.99)
-    assert ex.explained_share(*pairs[1]) == 0.0
-    ex.check_2(lambda r, h: 1 - np.mean((h - r) ** 2) / np.mean(r ** 2), pairs)
-    assert _status("07.2") == teaching.CORRECT
-    ex.check_2(lambda r, h: 1 - np.sqrt(np.mean((h - r) ** 2) / np.mean(r ** 2)), pairs)
-    assert _status("07.2") == teaching.WRONG
-    ex.check_2(lambda r, h: ..., pairs)
-    assert _status("07.2") == teaching.EMPTY
-
-
-def test_check_3_nees_tuning():
+def test_check_2_nees_tuning():
     from vehicle_observers.estimation import kalman_runs as KR
 
     car = load_vehicle("yacine2015")
@@ -67,17 +52,17 @@ def test_check_3_nees_tuning():
     # the ML tuning of r and a_y is over-confident about v_y here (NEES >> 1): a larger q_vy
     assert nees(1.0) > 2.0
     s_ok = next(s for s in (10.0, 30.0, 100.0, 300.0, 1000.0) if 0.5 <= nees(s) <= 2.0)
-    ex.check_3(nees, s_ok, log, car.params, tun, mask)
-    assert _status("07.3") == teaching.CORRECT
-    ex.check_3(nees, 1.0, log, car.params, tun, mask)     # the over-confident ML tuning
-    assert _status("07.3") == teaching.WRONG
-    ex.check_3(lambda s: 2 * nees(s), s_ok, log, car.params, tun, mask)
-    assert _status("07.3") == teaching.WRONG
-    ex.check_3(nees, ..., log, car.params, tun, mask)
-    assert _status("07.3") == teaching.EMPTY
+    ex.check_2(nees, s_ok, log, car.params, tun, mask)
+    assert _status("07.2") == teaching.CORRECT
+    ex.check_2(nees, 1.0, log, car.params, tun, mask)     # the over-confident ML tuning
+    assert _status("07.2") == teaching.WRONG
+    ex.check_2(lambda s: 2 * nees(s), s_ok, log, car.params, tun, mask)
+    assert _status("07.2") == teaching.WRONG
+    ex.check_2(nees, ..., log, car.params, tun, mask)
+    assert _status("07.2") == teaching.EMPTY
 
 
-def test_check_4_registered_estimator():
+def test_check_3_registered_estimator():
     revs = load_vehicle("revs250lm")
     yac = load_vehicle("yacine2015")
     logs = [(emulated_satory(seed=0, quick=True).segment(0.0, 5.0), yac),
@@ -95,12 +80,12 @@ def test_check_4_registered_estimator():
     try:
         EST.register(EST.EstimatorSpec("test-steady-state", "test", run), replace=True)
         EST.register(EST.EstimatorSpec("test-kinematic", "test", kinematic), replace=True)
-        ex.check_4("test-steady-state", logs)
-        assert _status("07.4") == teaching.CORRECT
-        ex.check_4("test-kinematic", logs)
-        assert _status("07.4") == teaching.WRONG
-        ex.check_4(..., logs)
-        assert _status("07.4") == teaching.EMPTY
+        ex.check_3("test-steady-state", logs)
+        assert _status("07.3") == teaching.CORRECT
+        ex.check_3("test-kinematic", logs)
+        assert _status("07.3") == teaching.WRONG
+        ex.check_3(..., logs)
+        assert _status("07.3") == teaching.EMPTY
     finally:
         unregister("test-steady-state")
         unregister("test-kinematic")

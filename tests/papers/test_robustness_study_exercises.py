@@ -50,40 +50,38 @@ def test_check_1_confidence_interval():
     assert teaching.RESULTS["08.1"] == teaching.EMPTY
 
 
-def test_check_2_task_seed():
-    def task_seed(seed, key):
-        h = hashlib.sha256(json.dumps(key, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-        return np.random.SeedSequence([int(seed), *(int(h[i:i + 8], 16) for i in range(0, 32, 8))])
+def test_check_2_paired_comparison_against_ttest_rel_and_rejects_the_unpaired_one():
+    """Catches a checker that cannot tell a paired interval from an unpaired one (the point of
+    the exercise): on the first pair only the paired interval excludes zero."""
+    def paired(a, b):
+        d = np.asarray(a) - np.asarray(b)
+        h = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
+        return d.mean(), h, bool(d.mean() + h < 0)
 
-    def salted(seed, key):                 # Python's hash: differs between processes
-        return np.random.SeedSequence([int(seed), abs(hash(str(key))) % 2 ** 32])
+    def unpaired(a, b):
+        a, b = np.asarray(a), np.asarray(b)
+        h = stats.t.ppf(0.975, 2 * len(a) - 2) * np.sqrt((a.var(ddof=1) + b.var(ddof=1)) / len(a))
+        return a.mean() - b.mean(), h, bool(a.mean() - b.mean() + h < 0)
 
-    ex.check_2(task_seed)
+    ex.check_2(paired)
     assert teaching.RESULTS["08.2"] == teaching.CORRECT
-    ex.check_2(salted)
+    ex.check_2(unpaired)
     assert teaching.RESULTS["08.2"] == teaching.WRONG
-    ex.check_2(lambda s, k: ...)
+    ex.check_2(lambda a, b: ...)
     assert teaching.RESULTS["08.2"] == teaching.EMPTY
+    a, b = ex.paired_samples(11)
+    assert paired(a, b)[2] and not unpaired(a, b)[2]
+    assert not ex.paired_expected(*ex.paired_samples(12, gap=0.0))[2]
 
 
-def test_check_3_metzler_bound():
-    from vehicle_observers.campaign.truths import car_vehicle
-
-    def bound(car):
-        v = car_vehicle(car)
-        a, b = v.C_r * v.params.a_r, v.C_f * v.params.a_f
-        return max((a - b) / (a + b), 0.0)
-
-    def unclipped_swapped(car):            # front and rear swapped
-        v = car_vehicle(car)
-        a, b = v.C_r * v.params.a_r, v.C_f * v.params.a_f
-        return (b - a) / (a + b)
-
-    # the Yacine car understeers (bound > 0)
-    assert bound("yacine2015") > 0.1
-    ex.check_3(bound)
+def test_check_3_box_for_a_wrong_file_against_the_closed_form():
+    """Catches the symmetric guess rho = E (a file 30 % low needs a 43 % box) and a wrong
+    inverse; the brute force agrees with E/(1-E) and rho/(1+rho)."""
+    assert ex.box_brute_force(0.3) == pytest.approx(0.3 / 0.7, rel=1e-12)
+    assert ex.max_error_brute_force(0.25) == pytest.approx(0.2, rel=1e-6)
+    ex.check_3(lambda E: E / (1 - E), lambda r: r / (1 + r))
     assert teaching.RESULTS["08.3"] == teaching.CORRECT
-    ex.check_3(unclipped_swapped)
+    ex.check_3(lambda E: E, lambda r: r)
     assert teaching.RESULTS["08.3"] == teaching.WRONG
-    ex.check_3(lambda c: ...)
+    ex.check_3(lambda E: ..., lambda r: r)
     assert teaching.RESULTS["08.3"] == teaching.EMPTY

@@ -59,6 +59,39 @@ def filterpy_update(x, P, y, delta: float, vx: float, params, R):
     return kf.x.copy(), kf.P.copy()
 
 
+def numpy_ekf(log, params, tuning=None) -> tuple[np.ndarray, np.ndarray]:
+    """The EKF of notebook 07's lesson in plain numpy, one sample at a time: predict with the
+    library's RK4 step and its exact Jacobian (:func:`K.rk4_step`), update with
+    ``y = [r, a_y]`` in the Joseph form. Returns ``(X, P)``: the states ``(N, 3)`` [m/s, rad/s,
+    m/s^2] and the last covariance ``(3, 3)``; the readable twin of :func:`K.ekf`."""
+    inp = K.prepare(log)
+    tun = tuning or K.KalmanTuning()
+    q = np.array([tun.q_vy, tun.q_r, tun.q_b])
+    R = np.diag([tun.R_r, tun.R_ay])
+    x = np.array([0.0, inp.yr[0], 0.0])
+    P = np.diag([min(tun.P0[0], (K.BETA0_STD * inp.vx[0]) ** 2), tun.P0[1], tun.P0[2]])
+    X = np.empty((len(inp.t), 3))
+    for k in range(len(inp.t)):
+        if k > 0:
+            x, F = K.rk4_step(x, inp.delta[k - 1], inp.vx[k - 1], inp.t[k] - inp.t[k - 1], params)
+            P = F @ P @ F.T + np.diag(q * (inp.t[k] - inp.t[k - 1]))
+        x, P = joseph_update(x, P, np.array([inp.yr[k], inp.ay[k]]), inp.delta[k], inp.vx[k],
+                             params, R)
+        X[k] = x
+    return X, P
+
+
+def joseph_update(x, P, y, delta: float, vx: float, params, R):
+    """One EKF update with ``y = [r, a_y]``: ``K = P H^T (H P H^T + R)^-1``,
+    ``x + K (y - h(x))`` and the Joseph form ``(I - KH) P (I - KH)^T + K R K^T``
+    (:func:`K.measure` gives ``h`` and ``H``). Returns ``(x, P)``."""
+    y_hat, H = K.measure(x, delta, vx, params)
+    S = H @ P @ H.T + R
+    gain = P @ H.T @ np.linalg.inv(S)
+    I_KH = np.eye(len(x)) - gain @ H
+    return x + gain @ (np.asarray(y, float) - y_hat), I_KH @ P @ I_KH.T + gain @ R @ gain.T
+
+
 def _inputs(log):
     return np.column_stack([log.delta, log.vx]), np.column_stack([log.yaw_rate, log.ay])
 

@@ -6,10 +6,14 @@ through :func:`vehicle_observers.results.teaching.check`. Keys ``"08.N"``.
 
 1. a Monte Carlo confidence interval of a mean RMSE (Student t) and the number of runs a claim
    needs, against ``scipy.stats.t`` on two samples;
-2. the seed of a campaign task (``SeedSequence`` keyed by the SHA-256 of the task's key),
-   against :func:`vehicle_observers.campaign.spec.seed_sequence` on two keys;
-3. the Metzler bound of Theorem 2 without a change of coordinates for two cars, against the
-   library's :meth:`UncertainBicycle.max_metzler_uncertainty` of the LMI map's model.
+2. a *paired* comparison of two estimators run on the same logs (the mean difference of
+   their RMSEs, its 95 % Student-t half-width, and whether the first is better), against
+   ``scipy.stats.ttest_rel``'s confidence interval, on samples where an unpaired comparison
+   could not tell;
+3. the stiffness box an interval observer needs when the vehicle file's stiffness is off by up
+   to ``E`` (derived: the truth ``c = c_file / (1 + e)`` must lie in ``[(1 - rho) c_file,
+   (1 + rho) c_file]`` for every ``|e| <= E``) and, inverted, the largest file error a box
+   ``rho`` covers; against a brute-force search over ``e``.
 """
 
 from __future__ import annotations
@@ -76,41 +80,101 @@ def check_1(ci, n_runs, samples, half_width):
                       "the half-width is small enough")
 
 
-# ------------------------------------------------------------------------- exercise 3 -------
-def check_3(metzler_bound_of, cars=("yacine2015", "bmw_320i")):
-    """Exercise 3: ``metzler_bound_of(car) -> float`` for each car of ``cars``, against the
-    LMI map's model of that car."""
-    from vehicle_observers.campaign import lmi_map
-
-    if _empty(metzler_bound_of):
-        return check("08.3", None, None, hint="")
-    want = [lmi_map.point_model(c, 0.1, 5.0, 20.0, 0.0)[1].max_metzler_uncertainty() for c in cars]
-    return check("08.3", lambda: [metzler_bound_of(c) for c in cars], want, rtol=1e-9, atol=1e-12,
-                 hint="rho_M = (c_r0 l_r - c_f0 l_f) / (c_r0 l_r + c_f0 l_f), 0 when negative "
-                      "(an oversteering car); l_f, l_r are a_f, a_r of the vehicle's params and "
-                      "c_f0, c_r0 its C_f, C_r")
-
-
 # ------------------------------------------------------------------------- exercise 2 -------
-_KEYS = (("log", "lpv:yacine2015", "slalom", 1.0, 0), ("errors", 3))
+
+def paired_samples(seed: int = 11, n: int = 25, gap: float = 0.002):
+    """Two RMSE samples [m/s] of two estimators on the same ``n`` logs: the logs' difficulty
+    varies a lot (a common factor), estimator ``a`` is better by ``gap`` on every log up to a
+    small noise; an unpaired interval cannot tell them apart, a paired one can."""
+    rng = np.random.default_rng(seed)
+    base = rng.gamma(3.0, 0.02, n)                     # how hard each log is
+    b = base + rng.normal(0.0, 0.0005, n)
+    a = base - gap + rng.normal(0.0, 0.0005, n)
+    return a, b
 
 
-def check_2(task_seed, seed: int = 7):
-    """Exercise 2: ``task_seed(seed, key) -> numpy.random.SeedSequence`` equal (same first four
-    words of state) to the campaign's for two keys."""
-    from vehicle_observers.campaign.spec import seed_sequence
+def paired_expected(a, b, level: float = 0.95) -> tuple[float, float, bool]:
+    """``(mean of a - b, half-width of its interval, a better)`` from
+    ``scipy.stats.ttest_rel(a, b).confidence_interval``."""
+    from scipy import stats
 
-    if _empty(task_seed):
+    res = stats.ttest_rel(a, b)
+    lo, hi = res.confidence_interval(level)
+    return float((lo + hi) / 2), float((hi - lo) / 2), bool(hi < 0)
+
+
+def check_2(paired):
+    """Exercise 2: ``paired(a, b) -> (mean difference, half-width, a_is_better)`` on two pairs
+    of samples (one where ``a`` is better, one where it is not)."""
+    if _empty(paired):
         return check("08.2", None, None, hint="")
+    sets = [paired_samples(11), paired_samples(12, gap=0.0)]
 
     def answer():
-        out = [task_seed(seed, list(k)) for k in _KEYS]
-        if any(o is Ellipsis or o is None for o in out):
-            return None
-        return [int(w) for o in out for w in o.generate_state(4)]
+        out = {}
+        for k, (a, b) in enumerate(sets):
+            g = paired(a, b)
+            if g is None or g is Ellipsis:
+                return None
+            m, h, better = g
+            out[f"set {k + 1}"] = {"mean difference": float(m), "half-width": float(h),
+                                   "a better": bool(better)}
+        return out
 
-    want = [int(w) for k in _KEYS for w in seed_sequence(seed, list(k)).generate_state(4)]
-    return check("08.2", answer, want, rtol=0, atol=0,
-                 hint="hash json.dumps(key, sort_keys=True, separators=(',', ':')) with SHA-256, "
-                      "take the first 32 hex digits as four 8-digit words, "
-                      "SeedSequence([seed, w0, w1, w2, w3])")
+    want = {}
+    for k, (a, b) in enumerate(sets):
+        m, h, better = paired_expected(a, b)
+        want[f"set {k + 1}"] = {"mean difference": m, "half-width": h, "a better": better}
+    return check("08.2", answer, want, rtol=1e-6, unit="m/s",
+                 hint=["the same logs: what varies from log to log cancels in a - b",
+                       "work on d = a - b: its mean and a Student-t interval with n - 1 degrees "
+                       "of freedom",
+                       "a is better when the whole interval of the mean difference is below 0"])
+
+
+# ------------------------------------------------------------------------- exercise 3 -------
+#: file errors E of exercise 3 (fractions) and boxes rho
+ERRORS_3 = (0.05, 0.1, 0.3)
+BOXES_3 = (0.1, 0.25)
+
+
+def box_brute_force(E: float, n: int = 20001) -> float:
+    """Smallest ``rho`` with ``1/(1 + e)`` in ``[1 - rho, 1 + rho]`` for every ``e`` on a grid of
+    ``[-E, E]`` (endpoints included)."""
+    e = np.linspace(-E, E, n)
+    return float(np.max(np.abs(1.0 / (1.0 + e) - 1.0)))
+
+
+def max_error_brute_force(rho: float) -> float:
+    """Largest ``E`` with :func:`box_brute_force` ``(E) <= rho`` (bisection)."""
+    lo, hi = 0.0, 0.999
+    for _ in range(80):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if box_brute_force(mid, 2001) <= rho else (lo, mid)
+    return lo
+
+
+def check_3(box_for_file_error, max_file_error):
+    """Exercise 3: ``box_for_file_error(E) -> rho`` and ``max_file_error(rho) -> E`` against a
+    brute-force search."""
+    if _empty(box_for_file_error) or _empty(max_file_error):
+        return check("08.3", None, None, hint="")
+
+    def answer():
+        out = {}
+        for E in ERRORS_3:
+            out[f"box for E = {E:g}"] = box_for_file_error(E)
+        for r in BOXES_3:
+            out[f"largest E for rho = {r:g}"] = max_file_error(r)
+        if any(v is None or v is Ellipsis for v in out.values()):
+            return None
+        return out
+
+    want = {f"box for E = {E:g}": box_brute_force(E) for E in ERRORS_3}
+    want |= {f"largest E for rho = {r:g}": max_error_brute_force(r) for r in BOXES_3}
+    return check("08.3", answer, want, rtol=1e-6,
+                 hint=["the observer's box is centred on the file's value c_file; the truth is "
+                       "c_file / (1 + e)",
+                       "which sign of e puts the truth furthest from c_file, and by how much?",
+                       "the box is not symmetric in e: a file 30 % too high and one 30 % too low "
+                       "need different rho"])
