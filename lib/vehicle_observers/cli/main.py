@@ -714,12 +714,14 @@ def cmd_campaign(args, out=None):
     if args.spec == "report":
         if not args.dir:
             raise CLIError("campaign report: give the campaign folder (campaign report DIR)")
-        from vehicle_observers.campaign.report import write_report
+        from vehicle_observers.campaign.report import integrity_lines, write_report
 
         t = write_report(args.dir)
         s = t["spec"]
         print(f"campaign {s.doc['name']} ({s.sha256[:12]}): {t['rows']} of {s.n_tasks} "
               f"simulations, {len(t['lmi_points'])} of {len(s.lmi_points)} LMI map points", file=out)
+        for line in integrity_lines(t["integrity"]):
+            print(f"warning: {line}", file=sys.stderr)
         for r in t["failures"]:
             print(f"  {r['estimator']:22s} failed {r['failed']}/{r['n']}", file=out)
         for r in t["best"]:
@@ -731,8 +733,16 @@ def cmd_campaign(args, out=None):
         raise CLIError(f"campaign: unexpected argument {args.dir!r} (campaign SPEC.toml --out DIR)")
     if not args.out:
         raise CLIError("campaign: --out DIR is required (the results folder)")
-    res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
-                       workers=args.workers, progress=args.progress)
+    from vehicle_observers.campaign.engine import CampaignStopped
+
+    try:
+        res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
+                           workers=args.workers, progress=args.progress)
+    except CampaignStopped as exc:
+        if exc.signum is None:
+            raise CLIError(str(exc)) from None
+        print(f"error: {exc}", file=sys.stderr)
+        return 128 + exc.signum
     print(res.line(), file=out)
     return 0
 
