@@ -529,8 +529,8 @@ def _identify_cached(log, geometry, channels, nonlinear):
     :func:`vehicle_observers.data.logs.cache_dir`): key = the window's measured channels,
     the geometry and options, and the source of the identification and model modules."""
     import hashlib
-    import pickle
 
+    from vehicle_observers.core import cache as _cache
     from vehicle_observers.data import identification as idf
     from vehicle_observers.data.logs import cache_dir
     from vehicle_observers.models import lateral, tires
@@ -541,21 +541,29 @@ def _identify_cached(log, geometry, channels, nonlinear):
     h.update(repr((tuple(float(g) for g in geometry), tuple(channels), nonlinear)).encode())
     for m in (idf, lateral, tires):
         h.update(Path(m.__file__).read_bytes())
-    f = cache_dir() / f"identify-{h.hexdigest()}.pkl"
-    try:
-        return pickle.loads(f.read_bytes())
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError,
-            ValueError):
-        pass
-    fit = idf.identify_stiffness(log, *geometry, channels=channels, nonlinear=nonlinear)
-    try:
-        f.parent.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(pickle.dumps(fit, protocol=pickle.HIGHEST_PROTOCOL))
-        os.replace(tmp, f)
-    except (OSError, pickle.PicklingError, AttributeError, TypeError):
-        pass
+    f = cache_dir() / f"identify-{h.hexdigest()}.npz"
+    fit = _cache.load(f, "identify", _check_fit)
+    if fit is None:
+        fit = idf.identify_stiffness(log, *geometry, channels=channels, nonlinear=nonlinear)
+        _cache.save(f, fit, "identify", _check_fit)
     return fit
+
+
+def _check_fit(fit):
+    """A cached fit: a :class:`StiffnessFit` of finite numbers with positive values
+    (stiffness, friction) and ordered 95 % intervals."""
+    from vehicle_observers.core.cache import InvalidEntry, check_finite
+    from vehicle_observers.data.identification import StiffnessFit
+
+    if not isinstance(fit, StiffnessFit):
+        raise InvalidEntry(f"holds a {type(fit).__name__}, not a StiffnessFit")
+    v, lo, hi = (np.asarray(x, float) for x in (fit.value, fit.ci_lo, fit.ci_hi))
+    check_finite(v, "value")
+    if v.shape != (len(fit.names),) or np.any(v <= 0):
+        raise InvalidEntry(f"fitted values {v.tolist()} are not one positive number per "
+                           f"parameter {list(fit.names)}")
+    if not np.all((lo <= v) & (v <= hi)):
+        raise InvalidEntry("a 95 % interval does not contain its value")
 
 
 #: the vehicle-file keys the geometry options of ``identify`` become
