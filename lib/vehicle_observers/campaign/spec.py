@@ -133,7 +133,8 @@ MAX_BATCH_FILES = 10 ** 5
 MAX_LMI_POINTS = 10 ** 5
 #: largest truth [samples] (about 12 float64 arrays of this length per truth in memory)
 MAX_TRUTH_SAMPLES = 10 ** 7
-#: memory of one result row in the report [bytes] (66 columns; measured on the tiny campaign)
+#: memory of one result row in the report [bytes] (measured: 430 on the tiny campaign of the
+#: tests, pyarrow and polars alike; rounded up for longer error messages)
 ROW_BYTES = 600
 #: manoeuvre arguments: (lowest, highest, lowest excluded) in SI units (rad, m/s, s, Hz); a
 #: manoeuvre's whole length is at most MAX_MANOEUVRE_S
