@@ -3,7 +3,7 @@
     python -m vehicle_observers [--plugin MODULE ...] observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
         --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
-        [--accept-mismatch] [--progress/--no-progress]
+        [--accept-mismatch] [--timeout SECONDS] [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
     python -m vehicle_observers identify LOG.csv --out VEHICLE.toml --mass M --inertia IZ \\
         --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no] [--window 120]
@@ -123,6 +123,9 @@ def _parser():
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
     e.add_argument("--out", required=True,
                    help="output CSV path (.csv, or .csv.gz written gzip-compressed)")
+    e.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="stop when the run takes longer (a plug-in that never returns): one "
+                        "line, exit status 2, nothing written (default: no limit)")
     tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
                                      "a [kalman] table for the vehicle file")
     _add_common(tu)
@@ -464,7 +467,8 @@ def _run(args):
             return cmd_identify(args)
         if args.cmd == "campaign":
             return cmd_campaign(args)
-        return cmd_estimate(args)
+        with _Deadline(getattr(args, "timeout", None), f"observer {args.observer!r}"):
+            return cmd_estimate(args)
     except _input_errors() as exc:
         from vehicle_observers.core.errors import InfeasibleDesign
 
@@ -473,6 +477,40 @@ def _run(args):
             lmi = f" (LMI {exc.lmi})" if getattr(exc, "lmi", None) else ""
             msg = f"observer {getattr(args, 'observer', 'tune')!r}: design infeasible{lmi}: {msg}"
         raise CLIError(msg) from None
+
+
+class _Deadline:
+    """``estimate --timeout``: a watchdog thread that, when the run outlasts it, removes the
+    partial output, writes one line and ends the process with exit status 2 (the main thread
+    may be stuck in a plug-in that never returns: no exception could reach it; a loop inside
+    one C call that holds the GIL for ever is beyond any thread's reach)."""
+
+    def __init__(self, seconds, what: str):
+        if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
+            raise CLIError(f"--timeout must be a number of seconds > 0, got {seconds:g}")
+        self.seconds, self.what, self.timer = seconds, what, None
+
+    def _fire(self):
+        from vehicle_observers.data.logs import discard_active_partials
+
+        discard_active_partials()
+        os.write(2, f"error: {self.what} ran longer than --timeout {self.seconds:g} s; stopped, "
+                    "nothing written\n".encode())
+        os._exit(EXIT_INPUT)
+
+    def __enter__(self):
+        if self.seconds is not None:
+            import threading
+
+            self.timer = threading.Timer(self.seconds, self._fire)
+            self.timer.daemon = True
+            self.timer.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self.timer is not None:
+            self.timer.cancel()
+        return False
 
 
 def _identify_parser(sub):
