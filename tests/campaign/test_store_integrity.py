@@ -378,3 +378,23 @@ def test_signal_says_what_was_kept_and_closes_the_cluster(tmp_path, sig):
     assert p.returncode == 128 + getattr(signal, sig), err
     assert f"interrupted by {sig}; {kept} of 20 batch(es) kept" in err, err
     assert "leaked" not in err and "Traceback" not in err, err
+
+
+def test_many_foreign_files_are_counted_not_listed(tiny_serial, tmp_path, caplog):
+    """Catches: a folder of an older format flooding the terminal with one line per file
+    (every file is still moved aside and recomputed)."""
+    spec, out, ref, _ = tiny_serial
+    dst = tmp_path / "c"
+    shutil.copytree(out, dst)
+    shutil.rmtree(dst / "report", ignore_errors=True)
+    for bid, _, _ in spec.batches():
+        _rewrite(store.batch_path(dst, "results", bid), drop_meta=True)
+    lines = R.integrity_lines(R.integrity(dst, spec))
+    assert len(lines) == store.MAX_NAMED + 2             # named, counted, missing tasks
+    assert f"missing {spec.n_tasks} simulation(s)" in lines[-1]
+    s = run(TINY, dst, engine="serial", progress=False)
+    assert s.run_now == spec.n_tasks
+    assert len([r for r in caplog.records if "does not belong" in r.getMessage()
+                or "did not belong" in r.getMessage()]) == store.MAX_NAMED + 1
+    assert len(list((dst / "rejected").iterdir())) == len(spec.batches())
+    assert same_bits(read_results(dst, spec=spec), ref) == []

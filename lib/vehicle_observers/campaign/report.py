@@ -339,7 +339,11 @@ def integrity(out, spec) -> dict:
 
 def integrity_lines(t: dict) -> list[str]:
     """Lines of the report naming the files left out and the tasks missing."""
-    lines = [f"ignored {f.parent.name}/{f.name}: {why}" for f, why in t["rejected"]]
+    rej = t["rejected"]
+    lines = [f"ignored {f.parent.name}/{f.name}: {why}" for f, why in rej[:store.MAX_NAMED]]
+    if len(rej) > store.MAX_NAMED:
+        lines.append(f"ignored {len(rej) - store.MAX_NAMED} more batch file(s) that do not "
+                     "belong to this campaign")
     for key, what in (("missing", "simulation"), ("lmi_missing", "LMI map point")):
         n = sum(b - a for a, b in t[key])
         if n:

@@ -42,6 +42,8 @@ SCHEMA_VERSION = 1
 META_KEY = b"vehicle_observers.batch"
 #: index column of each kind of batch
 INDEX = {"results": "task", "lmi": "point"}
+#: rejected files named one by one (the others counted in one line)
+MAX_NAMED = 5
 log = logging.getLogger(__name__)
 
 
@@ -208,8 +210,13 @@ def check_batches(out, spec: Spec, kind: str, reject: bool = False):
             except OSError as exc:
                 raise SpecError(f"{f}: does not belong to this campaign ({why}) and cannot "
                                 f"be moved aside ({write_reason(exc)})") from None
-            log.warning("warning: %s does not belong to this campaign (%s): moved to %s, "
-                        "batch %d recomputed", f, why, dest, bid)
+            if len(bad) <= MAX_NAMED:
+                log.warning("warning: %s does not belong to this campaign (%s): moved to %s, "
+                            "batch %d recomputed", f, why, dest, bid)
+    if reject and len(bad) > MAX_NAMED:
+        log.warning("warning: %d more %s file(s) did not belong to this campaign: moved to "
+                    "%s, their batches recomputed", len(bad) - MAX_NAMED, kind,
+                    Path(out) / "rejected")
     return good, bad
 
 
