@@ -124,8 +124,9 @@ MIN_BATCH = 64
 #: ... unless the campaign would then have fewer tasks than this (parallelism)
 MIN_BATCHES = 64
 
-#: largest campaign [simulations]: its rows take about :data:`ROW_BYTES` each in the report's
-#: memory (1e6 rows: about 0.6 GB) and 1e6 simulations are 3 to 30 hours of one core
+#: largest campaign [simulations]: the report holds every row in memory, about
+#: :data:`ROW_BYTES` each (1e6 rows: about 0.6 GB; README: 1e6 simulations of the bench's
+#: estimators are 0.3-0.4 core-hours); a larger study is several campaigns
 MAX_TASKS = 10 ** 6
 #: largest number of batch files (one Parquet file and one Dask task each)
 MAX_BATCH_FILES = 10 ** 5
