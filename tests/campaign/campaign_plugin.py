@@ -2,7 +2,8 @@
 worker): ``test-slow`` sleeps ``$CAMPAIGN_TEST_SLEEP`` seconds and returns the open-loop
 linear bicycle (so a campaign lasts long enough to be killed mid-run; the sleep changes no
 number), ``test-diverges`` returns NaN after the first second when the vehicle file's mass is
-wrong (a diverged filter, to be recorded as a failed task), ``test-hangs`` never returns;
+wrong (a diverged filter, to be recorded as a failed task), ``test-hangs`` never returns
+while ``$CAMPAIGN_TEST_HANG`` is set (else it is ``test-slow``);
 importing it makes the truth of a 5.5 s slalom fail (no other manoeuvre is touched)."""
 
 from __future__ import annotations
@@ -30,10 +31,11 @@ def diverges(log, vehicle, **_):
     return Trajectory(log.t, x, ("vy_mps", "yaw_rate_radps"), estimator="test-diverges")
 
 
-@estimator("test-hangs", "never returns (a plug-in stuck in a loop; tests)")
+@estimator("test-hangs", "never returns while $CAMPAIGN_TEST_HANG is set (tests)")
 def hangs(log, vehicle, **_):
-    while True:
-        time.sleep(0.01)
+    while os.environ.get("CAMPAIGN_TEST_HANG"):     # only in the timeout tests: every other
+        time.sleep(0.01)                             # test of the process may run it
+    return slow(log, vehicle)
 
 
 # a truth that cannot be simulated: the slalom of 5.5 s fails inside the plant (tests of the

@@ -249,6 +249,7 @@ def test_engines_agree_when_a_truth_fails(tmp_path, monkeypatch):
 def test_task_that_never_returns_is_stopped_and_recorded(tmp_path, monkeypatch, engine):
     """Catches: a plug-in whose run never returns hanging the whole campaign."""
     monkeypatch.setenv("PYTHONPATH", plugin_env(0)["PYTHONPATH"])
+    monkeypatch.setenv("CAMPAIGN_TEST_HANG", "1")
     spec = {**SLOW, "name": "hangs", "repetitions": 1, "timeout_s": 0.5,
             "estimators": ["test-hangs", "test-slow"]}
     t0 = time.perf_counter()
