@@ -743,7 +743,7 @@ def _normalise(doc: dict, where: str) -> dict:
     vals = {k: list(_grid(where, f"errors.{k}", er[k], -0.9, 10.0)) for k in ERROR_KEYS if k in er}
     samples = er.get("samples", 0)
     if design == "sample":
-        samples = _number(where, "errors.samples", samples, 1, MAX_TASKS, integer=True)
+        samples = _number(where, "errors.samples", samples, 1, 10 ** 7, integer=True)
         for k, v in vals.items():
             if len(v) != 2 or not v[0] <= v[1]:
                 _err(where, f"errors.{k}", f"must be [min, max] for design = \"sample\", got {v}")
