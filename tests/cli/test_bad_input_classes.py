@@ -622,7 +622,7 @@ def test_interval_design_cached_on_disk_is_the_same_design(tmp_path, monkeypatch
     veh = type(veh)(veh.name, veh.params, {**veh.uncertainty, "vx_min": 2.0}, None, veh.path)
     monkeypatch.setattr(adapters, "_IV_CACHE", {})
     a, _ = adapters.interval_design(veh, 0.01, cache=True)
-    files = list((tmp_path / "c").glob("design-ifqir2017-*.pkl"))
+    files = list((tmp_path / "c").glob("design-ifqir2017-*.npz"))
     assert len(files) == 1
     monkeypatch.setattr(adapters, "_IV_CACHE", {})
     b, sec = adapters.interval_design(veh, 0.01, cache=True)
@@ -631,4 +631,4 @@ def test_interval_design_cached_on_disk_is_the_same_design(tmp_path, monkeypatch
     # another sample period is another design
     monkeypatch.setattr(adapters, "_IV_CACHE", {})
     adapters.interval_design(veh, 0.02, cache=True)
-    assert len(list((tmp_path / "c").glob("design-ifqir2017-*.pkl"))) == 2
+    assert len(list((tmp_path / "c").glob("design-ifqir2017-*.npz"))) == 2

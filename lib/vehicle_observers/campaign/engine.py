@@ -48,6 +48,60 @@ class CampaignError(RuntimeError):
     """The campaign machinery failed (not a task: failing tasks are recorded as rows)."""
 
 
+class CampaignStopped(SpecError):
+    """The campaign stopped before its end (a signal, a full disk): the one-line message
+    says how many batches are kept and that the same command resumes. ``signum``: the
+    signal, or ``None``."""
+
+    def __init__(self, message, signum=None):
+        super().__init__(message)
+        self.signum = signum
+
+
+def provenance(spec) -> dict:
+    """What produced a batch file, stored in its metadata (:func:`store.batch_meta`): the
+    package version and the spec's plug-in modules."""
+    import vehicle_observers
+
+    return {"package_version": vehicle_observers.__version__, "plugins": list(spec.plugins)}
+
+
+class _Signals:
+    """SIGINT / SIGTERM during a run raise :class:`CampaignStopped` in the main thread, so
+    the cluster is closed (its worker processes and semaphores released) and the batches
+    written are counted; a second signal while closing ends the process at once."""
+
+    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+
+    def __init__(self):
+        self.prev, self.hit = {}, None
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for n in self.NAMES:
+            sig = getattr(signal, n, None)
+            if sig is not None:
+                self.prev[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def _handle(self, signum, frame):
+        if self.hit is not None:
+            os._exit(128 + signum)
+        self.hit = signum
+        raise CampaignStopped("", signum)
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, h in self.prev.items():
+            signal.signal(sig, h)
+        return False
+
+
 @dataclass
 class CampaignSummary:
     """What :func:`run` did. ``tasks``: simulations of the plan; ``done_before``: already in
@@ -98,8 +152,8 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
                         "address the cluster's own workers run")
     out = Path(out_dir)
     store.prepare(out, spec)
-    done = store.done_batches(out, "results")
-    ldone = store.done_batches(out, "lmi")
+    done = store.done_batches(out, "results", spec)
+    ldone = store.done_batches(out, "lmi", spec)
     pending = [b for b in spec.batches() if b[0] not in done]
     lpending = [b for b in spec.lmi_batches() if b[0] not in ldone]
     n_before = sum(b - a for k, a, b in spec.batches() if k in done)
@@ -111,27 +165,48 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
     bar = tqdm(total=total, initial=n_before + l_before, unit="sim", file=sys.stderr,
                disable=not show, desc=spec.doc["name"], smoothing=0.05)
     rschema, lschema = tasks.result_schema(), lmi_map.schema()
+    ranges = {("results", k): (a, b) for k, a, b in pending}
+    ranges.update({("lmi", k): (a, b) for k, a, b in lpending})
+    prov = provenance(spec)
+    written = []
 
     def save(kind, bid, cols):
-        store.write_batch(out, kind, bid, cols, rschema if kind == "results" else lschema)
+        a, b = ranges[(kind, bid)]
+        try:
+            store.write_batch(out, kind, bid, cols, rschema if kind == "results" else lschema,
+                              store.batch_meta(spec, kind, bid, a, b, prov))
+        except OSError as exc:
+            raise CampaignStopped(f"{out}: cannot write {kind} batch {bid} "
+                                  f"({store.write_reason(exc)})") from None
+        written.append(bid)
         bar.update(len(cols["batch"]))
 
     n_workers = 1
     try:
-        if engine == "serial":
-            if pending:
-                tasks.warm_up(spec.plugins)
-            for bid, a, b in pending:
-                save("results", bid, tasks.run_batch(spec.raw, bid, a, b))
-            for bid, a, b in lpending:
-                save("lmi", bid, lmi_map.run_lmi_batch(spec.raw, bid, a, b))
-        elif pending or lpending:
-            n_workers = _run_dask(spec, pending, lpending, save, scheduler, workers)
+        with _Signals():
+            if engine == "serial":
+                if pending:
+                    tasks.warm_up(spec.plugins)
+                for bid, a, b in pending:
+                    save("results", bid, tasks.run_batch(spec.raw, bid, a, b))
+                for bid, a, b in lpending:
+                    save("lmi", bid, lmi_map.run_lmi_batch(spec.raw, bid, a, b))
+            elif pending or lpending:
+                n_workers = _run_dask(spec, pending, lpending, save, scheduler, workers)
+    except CampaignStopped as exc:
+        import signal
+
+        kept = len(store.done_batches(out, "results")) + len(store.done_batches(out, "lmi"))
+        why = (f"interrupted by {signal.Signals(exc.signum).name}" if exc.signum is not None
+               else str(exc))
+        raise CampaignStopped(f"{why}; {kept} of {len(spec.batches()) + len(spec.lmi_batches())} "
+                              f"batch(es) kept in {out} ({len(written)} written by this run); "
+                              "the same command resumes", exc.signum) from None
     finally:
         bar.close()
     import pyarrow.compute as pc
 
-    res = store.read_results(out, ["ok", "estimator"])
+    res = store.read_results(out, ["ok", "estimator"], spec)
     failed = int(len(res) - pc.sum(res["ok"]).as_py()) if len(res) else 0
     fails = {}
     if failed:
@@ -193,16 +268,14 @@ def _run_dask(spec, pending, lpending, save, scheduler, workers) -> int:
             prepare_client(client, spec.plugins)
             n_workers = len(client.scheduler_info()["workers"])
             tag = spec.sha256[:16]
-            need = {}
-            for _, a, b in pending:
+            tfut, futs = {}, {}
+            for bid, a, b in pending:       # streamed: each batch is submitted at once
+                tr = []
                 for args in tasks.truths_of_batch(spec, a, b):
-                    need.setdefault(args, None)
-            tfut = {args: client.submit(tasks.make_truth, args, key=f"vo-truth-{tag}-{i}",
-                                        pure=False)
-                    for i, args in enumerate(need)}
-            futs = {}
-            for bid, a, b in pending:
-                tr = [tfut[args] for args in tasks.truths_of_batch(spec, a, b)]
+                    if args not in tfut:
+                        tfut[args] = client.submit(tasks.make_truth, args,
+                                                   key=f"vo-truth-{tag}-{len(tfut)}", pure=False)
+                    tr.append(tfut[args])
                 f = client.submit(tasks.run_batch, spec.raw, bid, a, b, tr,
                                   key=f"vo-batch-{tag}-{bid}", pure=False)
                 futs[f.key] = ("results", bid, f)

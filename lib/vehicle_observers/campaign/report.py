@@ -42,10 +42,10 @@ REFERENCES = {"open_loop": "open-loop-linear", "linear_kf": "linear-kf"}
 PAIR = ("plant", "car", "manoeuvre", "variant", "rate_hz", "noise_scale", "bias", "rep")
 
 
-def _frame(out):
+def _frame(out, spec=None):
     import polars as pl
 
-    return pl.from_arrow(store.read_results(out))
+    return pl.from_arrow(store.read_results(out, spec=spec))
 
 
 def _slices(df, design: str):
@@ -149,11 +149,11 @@ def conservatism_table(df) -> list[dict]:
     return out
 
 
-def lmi_table(out) -> tuple[list[dict], list[dict]]:
+def lmi_table(out, spec=None) -> tuple[list[dict], list[dict]]:
     """(every map point, summary per (car, kappa, speed range): points, feasible,
     infeasible, inconclusive, largest feasible ``stiffness_rel``, the analytic Metzler
-    bound)."""
-    t = store.read_lmi(out)
+    bound). ``spec``: the verified batch files only."""
+    t = store.read_lmi(out, spec)
     rows = t.to_pylist()
     summ = {}
     for r in rows:
@@ -327,18 +327,46 @@ def fig_failures(fails: list[dict]):
 
 
 # ------------------------------------------------------------------ the whole report -------
+def integrity(out, spec) -> dict:
+    """Which batch files of ``out`` belong to ``spec`` (:func:`store.check_batches`):
+    ``rejected`` ``[(file, reason), ...]`` (left out of every table), ``missing`` and
+    ``lmi_missing`` (ranges of tasks / points in no verified file)."""
+    good, bad = store.check_batches(out, spec, "results")
+    lgood, lbad = store.check_batches(out, spec, "lmi")
+    return {"rejected": bad + lbad, "missing": store.missing(spec, "results", good),
+            "lmi_missing": store.missing(spec, "lmi", lgood)}
+
+
+def integrity_lines(t: dict) -> list[str]:
+    """Lines of the report naming the files left out and the tasks missing."""
+    rej = t["rejected"]
+    lines = [f"ignored {f.parent.name}/{f.name}: {why}" for f, why in rej[:store.MAX_NAMED]]
+    if len(rej) > store.MAX_NAMED:
+        lines.append(f"ignored {len(rej) - store.MAX_NAMED} more batch file(s) that do not "
+                     "belong to this campaign")
+    for key, what in (("missing", "simulation"), ("lmi_missing", "LMI map point")):
+        n = sum(b - a for a, b in t[key])
+        if n:
+            lines.append(f"missing {n} {what}(s) (not run yet, or in an ignored file): "
+                         f"{store.ranges_text(t[key])}")
+    return lines
+
+
 def tables(out) -> dict:
-    """Every table of the report of campaign folder ``out`` (lists of dicts)."""
+    """Every table of the report of campaign folder ``out`` (lists of dicts), from the
+    batch files that belong to its spec only (each task counted once); ``integrity``
+    names the files left out and the tasks missing."""
     spec = store.spec_of_folder(out)
-    df = _frame(out)
-    res = {"spec": spec, "rows": len(df)}
+    check = integrity(out, spec)
+    df = _frame(out, spec)
+    res = {"spec": spec, "rows": len(df), "integrity": check}
     if len(df):
         errs = error_table(df, spec.doc["errors"]["design"])
         res.update(errors=errs, conservatism=conservatism_table(df), failures=failure_table(df),
                    best=best_table(errs, exclude=tuple(REFERENCES.values())))
     else:
         res.update(errors=[], conservatism=[], failures=[], best=[])
-    res["lmi_points"], res["lmi_summary"] = lmi_table(out)
+    res["lmi_points"], res["lmi_summary"] = lmi_table(out, spec)
     return res
 
 
@@ -368,13 +396,25 @@ def write_report(out, dest=None) -> dict:
     ``errors.csv``, ``conservatism.csv``, ``lmi_map.csv``, ``lmi_summary.csv``,
     ``failures.csv``, ``best.csv``, ``summary.md`` and the figures (PNG). Returns the tables
     and ``files``."""
-    import matplotlib.pyplot as plt
+    from vehicle_observers.campaign.spec import SpecError
 
     out = Path(out)
     store.manifest(out)
     dest = Path(dest) if dest else out / "report"
-    dest.mkdir(parents=True, exist_ok=True)
+    if dest.exists() and not dest.is_dir():
+        raise SpecError(f"{dest}: exists and is not a folder (the report is written there); "
+                        "move it away")
     t = tables(out)
+    try:
+        dest.mkdir(parents=True, exist_ok=True)
+        return _write(dest, t)
+    except OSError as exc:
+        raise SpecError(f"{dest}: cannot write the report ({store.write_reason(exc)})") from None
+
+
+def _write(dest: Path, t: dict) -> dict:
+    import matplotlib.pyplot as plt
+
     names = {"errors": "errors", "conservatism": "conservatism", "lmi_points": "lmi_map",
              "lmi_summary": "lmi_summary", "failures": "failures", "best": "best"}
     files = []
@@ -392,9 +432,11 @@ def write_report(out, dest=None) -> dict:
             plt.close(fig)
             files.append(dest / f"{name}.png")
     spec = t["spec"]
+    warn = integrity_lines(t["integrity"])
     lines = [f"# Campaign {spec.doc['name']} (spec {spec.sha256[:12]})", "",
              f"{t['rows']} of {spec.n_tasks} simulations done; "
              f"{len(t['lmi_points'])} of {len(spec.lmi_points)} LMI map points.", "",
+             *([*(f"- {w}" for w in warn), ""] if warn else []),
              "## v_y RMSE [m/s] against the vehicle file's errors", "", *_md(t["errors"]), "",
              "## Best estimator per region", "", *_md(t["best"]), "",
              "## Interval observers: conservatism map", "", *_md(t["conservatism"]), "",

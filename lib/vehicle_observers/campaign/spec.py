@@ -15,6 +15,8 @@ truth is known, with the *observer's* vehicle file perturbed, and scores each ru
     plugins = []              # modules registering more estimators (imported on the workers)
     batch_size = "auto"       # simulations per Dask task (auto: 64, fewer below 4096
                               # simulations, more above 128000: at most 2000 tasks)
+    timeout_s = 60.0          # a simulation running longer is stopped and recorded as
+                              # failed (error_type "TaskTimeout"); default: no limit
 
     [truth]
     plants = ["multibody:bmw_320i", "lpv:bmw_320i", "yaw-drift:yacine2015"]
@@ -64,8 +66,14 @@ rate, repetition): every estimator and every parameter error sees the same noisy
 (common random numbers), and no draw depends on where or in which order a task ran. The
 sampled parameter errors of draw ``j`` come from the key ``("errors", j)`` the same way.
 
-Errors in the file (unknown key or estimator, negative noise, empty grid, ...) raise
-:class:`SpecError` with one line naming the key.
+Errors in the file (unknown key or estimator, negative noise, NaN or inf anywhere, empty
+grid, a manoeuvre argument outside :data:`MANOEUVRE_BOUNDS`, ...) raise :class:`SpecError`
+with one line naming the key.
+
+Size: the plan is counted from the document without enumerating it (:meth:`Spec.size`) and a
+spec above :data:`MAX_TASKS` simulations, :data:`MAX_BATCH_FILES` batch files,
+:data:`MAX_LMI_POINTS` LMI map points or :data:`MAX_TRUTH_SAMPLES` samples in one truth is
+refused before anything runs, naming the count and the limit.
 """
 
 from __future__ import annotations
@@ -116,8 +124,30 @@ MIN_BATCH = 64
 #: ... unless the campaign would then have fewer tasks than this (parallelism)
 MIN_BATCHES = 64
 
+#: largest campaign [simulations]: the report holds every row in memory, about
+#: :data:`ROW_BYTES` each (1e6 rows: about 0.6 GB; README: 1e6 simulations of the bench's
+#: estimators are 0.3-0.4 core-hours); a larger study is several campaigns
+MAX_TASKS = 10 ** 6
+#: largest number of batch files (one Parquet file and one Dask task each)
+MAX_BATCH_FILES = 10 ** 5
+#: largest LMI feasibility map [points] (each a cvxpy solve of 10-100 ms)
+MAX_LMI_POINTS = 10 ** 5
+#: largest truth [samples] (about 12 float64 arrays of this length per truth in memory)
+MAX_TRUTH_SAMPLES = 10 ** 7
+#: memory of one result row in the report [bytes] (measured: 430 on the tiny campaign of the
+#: tests, pyarrow and polars alike; rounded up for longer error messages)
+ROW_BYTES = 600
+#: manoeuvre arguments: (lowest, highest, lowest excluded) in SI units (rad, m/s, s, Hz); a
+#: manoeuvre's whole length is at most MAX_MANOEUVRE_S
+MANOEUVRE_BOUNDS = {"vx": (2.0, 80.0, False), "amplitude": (-0.6, 0.6, False),
+                    "delta_max": (-0.6, 0.6, False), "frequency_hz": (0.0, 10.0, True),
+                    "duration": (0.0, 3600.0, True), "ramp": (0.0, 3600.0, True),
+                    "dwell": (0.0, 600.0, False), "t_before": (0.0, 600.0, False),
+                    "t_after": (0.0, 600.0, False), "t_start": (0.0, 3600.0, False)}
+MAX_MANOEUVRE_S = 3600.0
+
 TOP_KEYS = ("name", "seed", "repetitions", "estimators", "references", "plugins", "batch_size",
-            "truth", "observer", "errors", "sensors", "score", "lmi_map")
+            "timeout_s", "truth", "observer", "errors", "sensors", "score", "lmi_map")
 TABLE_KEYS = {
     "truth": ("plants", "manoeuvres"),
     "observer": ("stiffness_rel", "speed_range", "kalman"),
@@ -292,6 +322,10 @@ class Spec:
 
     def __init__(self, doc: dict, source: str = "spec"):
         self.source = source
+        bad = _non_finite(doc)
+        if bad:
+            raise SpecError(f"{source}: key '{bad}' must be a finite number, got "
+                            f"{_lookup(doc, bad)!r}")
         #: the document as given (JSON-able): what the workers rebuild the spec from
         try:
             self.raw = json.loads(json.dumps(doc, allow_nan=False)) if isinstance(doc, dict) \
@@ -300,6 +334,7 @@ class Spec:
             raise SpecError(f"{source}: values must be strings, finite numbers, lists and "
                             f"tables ({exc})") from None
         self.doc = _normalise(doc, source)
+        check_size(self.doc, source)
 
     @cached_property
     def sha256(self) -> str:
@@ -351,13 +386,24 @@ class Spec:
         return self.doc["repetitions"]
 
     @cached_property
+    def n_variants(self) -> int:
+        """Number of vehicle-file variants, counted from the document (not enumerated)."""
+        return count_variants(self.doc)
+
+    @cached_property
     def radix(self) -> tuple:
-        return (len(self.pairs), len(self.variants), len(self.rates), len(self.manoeuvres),
+        return (len(self.pairs), self.n_variants, len(self.rates), len(self.manoeuvres),
                 len(self.noises), len(self.biases), self.repetitions)
 
     @cached_property
     def n_tasks(self) -> int:
-        return int(np.prod(self.radix, dtype=np.int64))
+        return math.prod(self.radix)
+
+    def size(self) -> dict:
+        """The plan's size, counted without enumerating it: ``tasks``, ``batches``,
+        ``rows`` (= tasks), ``memory_bytes`` (rows in the report), ``lmi_points``,
+        ``truth_samples`` (the longest truth)."""
+        return plan_size(self.doc)
 
     def task(self, i: int) -> Task:
         """Task ``i`` of the plan (``0 <= i < n_tasks``)."""
@@ -375,11 +421,7 @@ class Spec:
 
     @cached_property
     def batch_size(self) -> int:
-        b = self.doc["batch_size"]
-        if b != "auto":
-            return int(b)
-        n = self.n_tasks
-        return max(-(-n // MAX_BATCHES), min(MIN_BATCH, -(-n // MIN_BATCHES)), 1)
+        return batch_size_of(self.doc["batch_size"], self.n_tasks)
 
     def batches(self) -> list[tuple[int, int, int]]:
         """``[(batch id, first task, end task), ...]``."""
@@ -405,11 +447,114 @@ class Spec:
 
     def summary(self) -> str:
         return (f"{self.doc['name']}: {self.n_tasks} simulations ({len(self.pairs)} estimator x "
-                f"truth pairs, {len(self.variants)} vehicle-file variants, {len(self.rates)} "
+                f"truth pairs, {self.n_variants} vehicle-file variants, {len(self.rates)} "
                 f"rate(s), {len(self.manoeuvres)} manoeuvre(s), {len(self.noises)} noise "
                 f"level(s), {len(self.biases)} bias case(s), {self.repetitions} repetition(s)) "
                 f"in {len(self.batches())} batches of {self.batch_size}"
                 + (f"; LMI map of {len(self.lmi_points)} points" if self.lmi_points else ""))
+
+
+def batch_size_of(b, n: int) -> int:
+    """Simulations per batch: ``b``, or for ``"auto"`` (:data:`MAX_BATCHES`, ...)."""
+    if b != "auto":
+        return int(b)
+    return max(-(-n // MAX_BATCHES), min(MIN_BATCH, -(-n // MIN_BATCHES)), 1)
+
+
+def count_variants(doc: dict) -> int:
+    """Vehicle-file variants of a normalised document (:func:`_error_points` x stiffness
+    boxes x speed ranges), counted."""
+    er = doc["errors"]
+    vals = er["values"]
+    if er["design"] == "one-at-a-time":
+        n = 1 + sum(1 for k in ERROR_KEYS for v in vals.get(k, []) if v != 0.0)
+    elif er["design"] == "factorial":
+        n = math.prod(len(v) for v in vals.values())
+    else:
+        n = er["samples"]
+    sr = doc["observer"]["speed_range"]
+    return n * len(doc["observer"]["stiffness_rel"]) * (1 if sr == "car" else len(sr))
+
+
+def manoeuvre_seconds(name: str, kw: dict) -> float:
+    """Length of a manoeuvre [s] from its arguments (defaults of its function)."""
+    from vehicle_observers.data import plant
+
+    params = inspect.signature(plant.MANOEUVRES[name]).parameters
+    a = {k: p.default for k, p in params.items()}
+    a.update(kw)
+    if name == "sine_with_dwell":
+        return a["t_before"] + 1.0 / a["frequency_hz"] + a["dwell"] + a["t_after"]
+    return float(a["duration"])
+
+
+def plan_size(doc: dict) -> dict:
+    """Size of the plan of a normalised document (:meth:`Spec.size`)."""
+    n = (len(doc["_pairs"]) * count_variants(doc) * len(doc["sensors"]["rates_hz"])
+         * len(doc["truth"]["manoeuvres"]) * len(doc["sensors"]["noise_scale"])
+         * len(doc["sensors"]["bias"]) * doc["repetitions"])
+    lm = doc.get("lmi_map")
+    lmi = (len(lm["cars"]) * len(lm["stiffness_rel"]) * len(lm["speed_range"])
+           * len(lm["kappa"])) if lm else 0
+    longest = max(manoeuvre_seconds(m["name"], m["kwargs"]) for m in doc["truth"]["manoeuvres"])
+    rate = max([NATIVE_RATE[p.split(":")[0]] or 0.0 for p in doc["truth"]["plants"]]
+               + list(doc["sensors"]["rates_hz"]))
+    bs = batch_size_of(doc["batch_size"], n)
+    return {"tasks": n, "batches": -(-n // bs) if n else 0, "rows": n,
+            "memory_bytes": n * ROW_BYTES, "lmi_points": lmi,
+            "lmi_batches": -(-lmi // lm["batch_size"]) if lm else 0,
+            "truth_samples": int(longest * rate) + 1}
+
+
+def check_size(doc: dict, where: str = "spec"):
+    """Refuse a plan above the limits (module docstring), naming the count."""
+    z = plan_size(doc)
+    if z["tasks"] > MAX_TASKS:
+        raise SpecError(f"{where}: the plan has {z['tasks']:.4g} simulations (about "
+                        f"{z['memory_bytes'] / 1e9:.3g} GB of rows), above the limit of "
+                        f"{MAX_TASKS:.0e}: fewer grid values, samples or repetitions, or "
+                        "several campaigns")
+    if z["batches"] > MAX_BATCH_FILES:
+        raise SpecError(f"{where}: key 'batch_size' gives {z['batches']} batch files, above the "
+                        f"limit of {MAX_BATCH_FILES:.0e}: a larger batch_size (or \"auto\")")
+    if z["lmi_points"] > MAX_LMI_POINTS or z["lmi_batches"] > MAX_BATCH_FILES:
+        raise SpecError(f"{where}: key 'lmi_map' gives {z['lmi_points']:.4g} points in "
+                        f"{z['lmi_batches']} batches, above the limit of {MAX_LMI_POINTS:.0e} "
+                        f"points / {MAX_BATCH_FILES:.0e} batches")
+    if z["truth_samples"] > MAX_TRUTH_SAMPLES:
+        raise SpecError(f"{where}: key 'truth.manoeuvres' with 'sensors.rates_hz' gives a truth "
+                        f"of {z['truth_samples']:.4g} samples, above the limit of "
+                        f"{MAX_TRUTH_SAMPLES:.0e}")
+    return z
+
+
+def _lookup(doc, path: str):
+    import re
+
+    cur = doc
+    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
+        try:
+            cur = cur[int(part[1:-1])] if part.startswith("[") else cur[part]
+        except (KeyError, IndexError, TypeError, ValueError):
+            return None
+    return cur
+
+
+def _non_finite(obj, path="") -> str | None:
+    """Dotted key of the first NaN / inf number in ``obj`` (``None`` if none)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return path or "value"
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            r = _non_finite(v, f"{path}.{k}" if path else str(k))
+            if r:
+                return r
+    if isinstance(obj, list | tuple):
+        for i, v in enumerate(obj):
+            r = _non_finite(v, f"{path}[{i}]")
+            if r:
+                return r
+    return None
 
 
 def dump_toml(doc: dict) -> str:
@@ -486,6 +631,9 @@ def _normalise(doc: dict, where: str) -> dict:
         avail = registry.available(plugins)
     except RegistryError as exc:
         raise SpecError(f"{where}: key 'plugins': {exc}") from None
+    if "timeout_s" in doc:          # only when given: the hash of other specs is unchanged
+        out["timeout_s"] = _number(where, "timeout_s", doc["timeout_s"], 0.0, 86400.0,
+                                   lo_open=True)
     bs = doc.get("batch_size", "auto")
     out["batch_size"] = bs if bs == "auto" else _number(where, "batch_size", bs, 1, 10 ** 7,
                                                        integer=True)
@@ -503,11 +651,16 @@ def _normalise(doc: dict, where: str) -> dict:
             _unknown(where, e, ("name", "plants"), "estimators.")
             if "name" not in e or "plants" not in e:
                 _err(where, "estimators", f"a table entry needs name and plants, got {e!r}")
+            if not isinstance(e["name"], str):
+                _err(where, "estimators", f"a table entry's name is one estimator name (a "
+                                          f"string), got {e['name']!r}: one entry per estimator")
             only[e["name"]] = _list(where, f"estimators.{e['name']}.plants", e["plants"])
             e = e["name"]
         names.append(e)
     refs = doc.get("references", list(DEFAULT_REFERENCES))
     refs = [] if refs == [] else _list(where, "references", refs)
+    if all(isinstance(r, str) for r in refs):
+        refs = list(dict.fromkeys(refs))        # a reference listed twice runs once
     for n in list(names) + list(refs):
         if not isinstance(n, str) or n not in avail:
             raise SpecError(f"{where}: key 'estimators': unknown estimator {n!r}; available: "
@@ -557,7 +710,12 @@ def _normalise(doc: dict, where: str) -> dict:
             if k not in params:
                 _err(where, f"truth.manoeuvres.{nm}", f"has unknown argument {k!r} (expected "
                                                       f"{', '.join(params)})")
-            kw[k] = _number(where, f"truth.manoeuvres.{nm}.{k}", v)
+            lo, hi, lo_open = MANOEUVRE_BOUNDS.get(k, (-math.inf, math.inf, False))
+            kw[k] = _number(where, f"truth.manoeuvres.{nm}.{k}", v, lo, hi, lo_open)
+        length = manoeuvre_seconds(nm, kw)
+        if not 0.0 < length <= MAX_MANOEUVRE_S:
+            _err(where, f"truth.manoeuvres.{nm}", f"lasts {length:g} s; at most "
+                                                  f"{MAX_MANOEUVRE_S:g} s")
         mans.append({"name": nm, "kwargs": kw})
     ids = [manoeuvre_id((m["name"], tuple(sorted(m["kwargs"].items())))) for m in mans]
     if len(set(ids)) != len(ids):

@@ -10,13 +10,21 @@ with ``ok = False`` and its error message; the other tasks go on.
 
 Rows hold no wall-clock time, so a task's row is the same wherever it ran (the engine's
 determinism tests compare them bit for bit).
+
+A truth that cannot be simulated is a failure of every task that needs it, with the same row
+on both engines (:class:`TruthFailure` travels to the batches in place of the truth). With
+the spec's ``timeout_s`` a task that runs longer is stopped and recorded as failed
+(``error_type = "TaskTimeout"``; :func:`deadline`), and the campaign goes on; such a row
+depends on the machine's speed, unlike every other.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import warnings
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -70,26 +78,112 @@ def spec_of(raw: dict) -> S.Spec:
 _TRUTHS: dict = {}
 
 
+@dataclass(frozen=True)
+class TruthFailure:
+    """A truth that could not be simulated: the error of every task that needs it."""
+
+    key: tuple
+    error_type: str
+    error: str
+
+
+class TruthFailed(Exception):
+    """Raised in a task whose truth failed; its row keeps the original error type."""
+
+    def __init__(self, failure: TruthFailure):
+        super().__init__(failure.error)
+        self.type_name = failure.error_type
+
+
+class TaskTimeout(Exception):
+    """A task ran longer than the spec's ``timeout_s``."""
+
+
+def _truth_or_failure(plant, car, man, rate):
+    key = S.truth_key(plant, car, man, rate)
+    try:
+        return T.simulate_truth(plant, car, man, rate)
+    except Exception as exc:  # noqa: BLE001 - recorded in the rows of its tasks
+        msg = str(exc).splitlines()[0] if str(exc) else ""
+        return TruthFailure(key, type(exc).__name__, msg[:MAX_MESSAGE])
+
+
 def truth(plant, car, man, rate) -> T.Truth:
-    """Truth of ``(plant, car, manoeuvre, rate)``, simulated once per process."""
+    """Truth of ``(plant, car, manoeuvre, rate)``, simulated once per process (a failure
+    too: raises :class:`TruthFailed`)."""
     key = S.truth_key(plant, car, man, rate)
     if key not in _TRUTHS:
-        _TRUTHS[key] = T.simulate_truth(plant, car, man, rate)
-    return _TRUTHS[key]
+        _TRUTHS[key] = _truth_or_failure(plant, car, man, rate)
+    tr = _TRUTHS[key]
+    if isinstance(tr, TruthFailure):
+        raise TruthFailed(tr)
+    return tr
 
 
 def truths_of_batch(spec: S.Spec, start: int, stop: int) -> list[tuple]:
-    """Distinct ``(plant, car, manoeuvre, rate)`` the tasks ``start..stop-1`` need."""
+    """Distinct ``(plant, car, manoeuvre, rate)`` the tasks ``start..stop-1`` need: one task
+    decoded per block of tasks that share a manoeuvre (noise, bias and repetition do not
+    change the truth), not every task."""
     out = {}
-    for i in range(start, stop):
+    inner = len(spec.noises) * len(spec.biases) * spec.repetitions
+    i = start
+    while i < stop:
         tk = spec.task(i)
         out.setdefault(tk.truth_key, (tk.plant, tk.car, tk.manoeuvre, tk.rate))
+        i = (i // inner + 1) * inner
     return list(out.values())
 
 
-def make_truth(args: tuple) -> T.Truth:
-    """Dask task: the truth of ``args = (plant, car, manoeuvre, rate)``."""
-    return truth(*args)
+def make_truth(args: tuple):
+    """Dask task: the truth of ``args = (plant, car, manoeuvre, rate)``, or its
+    :class:`TruthFailure` (never raises: the tasks that need it record the failure, as the
+    serial engine does)."""
+    return _truth_or_failure(*args)
+
+
+@contextlib.contextmanager
+def deadline(seconds):
+    """Raise :class:`TaskTimeout` in this thread after ``seconds`` (``None``: no limit).
+    In the main thread through ``SIGALRM`` (interrupts a sleep too); in another thread (a
+    Dask worker's) through ``PyThreadState_SetAsyncExc``, raised at the next Python
+    bytecode (a task blocked inside one C call is stopped when it returns)."""
+    if not seconds:
+        yield
+        return
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer"):
+        def on_alarm(signum, frame):
+            raise TaskTimeout()
+
+        old = signal.signal(signal.SIGALRM, on_alarm)
+        signal.setitimer(signal.ITIMER_REAL, float(seconds))
+        try:
+            yield
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, old)
+        return
+    import ctypes
+
+    tid, lock, live = threading.get_ident(), threading.Lock(), [True]
+
+    def fire():
+        with lock:
+            if live[0]:
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid),
+                                                           ctypes.py_object(TaskTimeout))
+
+    timer = threading.Timer(float(seconds), fire)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        with lock:
+            live[0] = False
+        timer.cancel()
 
 
 def _in_box(tr: T.Truth, v: S.Variant, errors: dict) -> bool:
@@ -112,8 +206,6 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     truth key -> :class:`~vehicle_observers.campaign.truths.Truth` (else simulated here);
     ``estimators``: the registry (:func:`~vehicle_observers.estimation.registry.available`
     reads the plug-in entry points on every call: give it once per batch)."""
-    from vehicle_observers.estimation import registry, scoring
-
     tk = spec.task(i)
     v = spec.variants[tk.variant]
     errors = v.error_dict
@@ -132,40 +224,56 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
            "truth_cf_min": float("nan"), "truth_cf_max": float("nan"),
            "truth_cr_min": float("nan"), "truth_cr_max": float("nan"),
            "in_box": None, "guarantee": None, "ok": False, "error_type": "", "error": ""}
+    row0 = dict(row)
     try:
-        key = S.truth_key(tk.plant, tk.car, tk.manoeuvre, tk.rate)
-        tr = truths[key] if truths is not None and key in truths else \
-            truth(tk.plant, tk.car, tk.manoeuvre, tk.rate)
-        rng = np.random.default_rng(S.seed_sequence(spec.seed, tk.log_key))
-        sens = d["sensors"]
-        log = T.make_log(tr, tk.rate, sens["std"], tk.noise, bias, sens["distribution"], rng)
-        tun = T.sensor_tuning(sens["std"], tk.noise) if d["observer"]["kalman"] == "sensors" \
-            else None
-        veh = T.observer_vehicle(tk.car, errors, v.rel, v.speed, tun)
-        row.update({f"truth_{k}": val for k, val in tr.stiffness.items()})
-        inb = _in_box(tr, v, errors)
-        row["in_box"] = inb
-        row["guarantee"] = bool(
-            inb and tk.plant == "lpv" and sens["distribution"] == "uniform"
-            and not any(bias.values()) and (tk.noise == 0.0 or sens["std"]["vx"] == 0.0)
-            and lo <= float(np.min(tr.vx)) and float(np.max(tr.vx)) <= hi)
-        avail = estimators if estimators is not None else registry.available(spec.plugins)
-        est = avail[tk.estimator].estimate(log, veh)
-        bad = [n for n, c in est.columns.items() if not np.all(np.isfinite(c))]
-        if bad:
-            k = int(np.argmax(~np.isfinite(est.columns[bad[0]])))
-            raise FloatingPointError(f"diverged: {bad[0]} is not finite from t = "
-                                     f"{log.t[k]:.3f} s")
-        mask = log.t - log.t[0] > d["score"]["settle_s"]
-        sc = scoring.score(est, log, mask)
-        row.update({k: float(sc[k]) for k in METRICS if k in sc})
-        row["samples"] = int(mask.sum())
-        row["ok"] = True
+        with deadline(d.get("timeout_s")):
+            _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators)
     except Exception as exc:  # noqa: BLE001 - every failure of a task is recorded, not raised
         msg = str(exc).splitlines()[0] if str(exc) else ""
-        row["error_type"] = type(exc).__name__
+        if isinstance(exc, TaskTimeout):
+            msg = (f"estimator {tk.estimator!r}: task ran longer than timeout_s = "
+                   f"{d['timeout_s']:g} s; stopped")
+            row.update(row0)        # what ran before the stop depends on the machine's speed
+        row["ok"] = False
+        row["error_type"] = getattr(exc, "type_name", type(exc).__name__)
         row["error"] = msg[:MAX_MESSAGE]
     return row
+
+
+def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators):
+    from vehicle_observers.estimation import registry, scoring
+
+    d = spec.doc
+    key = S.truth_key(tk.plant, tk.car, tk.manoeuvre, tk.rate)
+    tr = truths[key] if truths is not None and key in truths else \
+        truth(tk.plant, tk.car, tk.manoeuvre, tk.rate)
+    if isinstance(tr, TruthFailure):
+        raise TruthFailed(tr)
+    rng = np.random.default_rng(S.seed_sequence(spec.seed, tk.log_key))
+    sens = d["sensors"]
+    log = T.make_log(tr, tk.rate, sens["std"], tk.noise, bias, sens["distribution"], rng)
+    tun = T.sensor_tuning(sens["std"], tk.noise) if d["observer"]["kalman"] == "sensors" \
+        else None
+    veh = T.observer_vehicle(tk.car, errors, v.rel, v.speed, tun)
+    row.update({f"truth_{k}": val for k, val in tr.stiffness.items()})
+    inb = _in_box(tr, v, errors)
+    row["in_box"] = inb
+    row["guarantee"] = bool(
+        inb and tk.plant == "lpv" and sens["distribution"] == "uniform"
+        and not any(bias.values()) and (tk.noise == 0.0 or sens["std"]["vx"] == 0.0)
+        and lo <= float(np.min(tr.vx)) and float(np.max(tr.vx)) <= hi)
+    avail = estimators if estimators is not None else registry.available(spec.plugins)
+    est = avail[tk.estimator].estimate(log, veh)
+    bad = [n for n, c in est.columns.items() if not np.all(np.isfinite(c))]
+    if bad:
+        k = int(np.argmax(~np.isfinite(est.columns[bad[0]])))
+        raise FloatingPointError(f"diverged: {bad[0]} is not finite from t = "
+                                 f"{log.t[k]:.3f} s")
+    mask = log.t - log.t[0] > d["score"]["settle_s"]
+    sc = scoring.score(est, log, mask)
+    row.update({k: float(sc[k]) for k in METRICS if k in sc})
+    row["samples"] = int(mask.sum())
+    row["ok"] = True
 
 
 _AVAILABLE: dict = {}

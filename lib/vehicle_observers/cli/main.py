@@ -3,7 +3,7 @@
     python -m vehicle_observers [--plugin MODULE ...] observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
         --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
-        [--accept-mismatch] [--progress/--no-progress]
+        [--accept-mismatch] [--timeout SECONDS] [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
     python -m vehicle_observers identify LOG.csv --out VEHICLE.toml --mass M --inertia IZ \\
         --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no] [--window 120]
@@ -123,6 +123,9 @@ def _parser():
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
     e.add_argument("--out", required=True,
                    help="output CSV path (.csv, or .csv.gz written gzip-compressed)")
+    e.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="stop when the run takes longer (a plug-in that never returns): one "
+                        "line, exit status 2, nothing written (default: no limit)")
     tu = sub.add_parser("tune", help="ML noise tuning of the Kalman observers on a log; prints "
                                      "a [kalman] table for the vehicle file")
     _add_common(tu)
@@ -464,7 +467,8 @@ def _run(args):
             return cmd_identify(args)
         if args.cmd == "campaign":
             return cmd_campaign(args)
-        return cmd_estimate(args)
+        with _Deadline(getattr(args, "timeout", None), f"observer {args.observer!r}"):
+            return cmd_estimate(args)
     except _input_errors() as exc:
         from vehicle_observers.core.errors import InfeasibleDesign
 
@@ -473,6 +477,40 @@ def _run(args):
             lmi = f" (LMI {exc.lmi})" if getattr(exc, "lmi", None) else ""
             msg = f"observer {getattr(args, 'observer', 'tune')!r}: design infeasible{lmi}: {msg}"
         raise CLIError(msg) from None
+
+
+class _Deadline:
+    """``estimate --timeout``: a watchdog thread that, when the run outlasts it, removes the
+    partial output, writes one line and ends the process with exit status 2 (the main thread
+    may be stuck in a plug-in that never returns: no exception could reach it; a loop inside
+    one C call that holds the GIL for ever is beyond any thread's reach)."""
+
+    def __init__(self, seconds, what: str):
+        if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
+            raise CLIError(f"--timeout must be a number of seconds > 0, got {seconds:g}")
+        self.seconds, self.what, self.timer = seconds, what, None
+
+    def _fire(self):
+        from vehicle_observers.data.logs import discard_active_partials
+
+        discard_active_partials()
+        os.write(2, f"error: {self.what} ran longer than --timeout {self.seconds:g} s; stopped, "
+                    "nothing written\n".encode())
+        os._exit(EXIT_INPUT)
+
+    def __enter__(self):
+        if self.seconds is not None:
+            import threading
+
+            self.timer = threading.Timer(self.seconds, self._fire)
+            self.timer.daemon = True
+            self.timer.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self.timer is not None:
+            self.timer.cancel()
+        return False
 
 
 def _identify_parser(sub):
@@ -529,8 +567,8 @@ def _identify_cached(log, geometry, channels, nonlinear):
     :func:`vehicle_observers.data.logs.cache_dir`): key = the window's measured channels,
     the geometry and options, and the source of the identification and model modules."""
     import hashlib
-    import pickle
 
+    from vehicle_observers.core import cache as _cache
     from vehicle_observers.data import identification as idf
     from vehicle_observers.data.logs import cache_dir
     from vehicle_observers.models import lateral, tires
@@ -541,21 +579,29 @@ def _identify_cached(log, geometry, channels, nonlinear):
     h.update(repr((tuple(float(g) for g in geometry), tuple(channels), nonlinear)).encode())
     for m in (idf, lateral, tires):
         h.update(Path(m.__file__).read_bytes())
-    f = cache_dir() / f"identify-{h.hexdigest()}.pkl"
-    try:
-        return pickle.loads(f.read_bytes())
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError,
-            ValueError):
-        pass
-    fit = idf.identify_stiffness(log, *geometry, channels=channels, nonlinear=nonlinear)
-    try:
-        f.parent.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(pickle.dumps(fit, protocol=pickle.HIGHEST_PROTOCOL))
-        os.replace(tmp, f)
-    except (OSError, pickle.PicklingError, AttributeError, TypeError):
-        pass
+    f = cache_dir() / f"identify-{h.hexdigest()}.npz"
+    fit = _cache.load(f, "identify", _check_fit)
+    if fit is None:
+        fit = idf.identify_stiffness(log, *geometry, channels=channels, nonlinear=nonlinear)
+        _cache.save(f, fit, "identify", _check_fit)
     return fit
+
+
+def _check_fit(fit):
+    """A cached fit: a :class:`StiffnessFit` of finite numbers with positive values
+    (stiffness, friction) and ordered 95 % intervals."""
+    from vehicle_observers.core.cache import InvalidEntry, check_finite
+    from vehicle_observers.data.identification import StiffnessFit
+
+    if not isinstance(fit, StiffnessFit):
+        raise InvalidEntry(f"holds a {type(fit).__name__}, not a StiffnessFit")
+    v, lo, hi = (np.asarray(x, float) for x in (fit.value, fit.ci_lo, fit.ci_hi))
+    check_finite(v, "value")
+    if v.shape != (len(fit.names),) or np.any(v <= 0):
+        raise InvalidEntry(f"fitted values {v.tolist()} are not one positive number per "
+                           f"parameter {list(fit.names)}")
+    if not np.all((lo <= v) & (v <= hi)):
+        raise InvalidEntry("a 95 % interval does not contain its value")
 
 
 #: the vehicle-file keys the geometry options of ``identify`` become
@@ -714,12 +760,14 @@ def cmd_campaign(args, out=None):
     if args.spec == "report":
         if not args.dir:
             raise CLIError("campaign report: give the campaign folder (campaign report DIR)")
-        from vehicle_observers.campaign.report import write_report
+        from vehicle_observers.campaign.report import integrity_lines, write_report
 
         t = write_report(args.dir)
         s = t["spec"]
         print(f"campaign {s.doc['name']} ({s.sha256[:12]}): {t['rows']} of {s.n_tasks} "
               f"simulations, {len(t['lmi_points'])} of {len(s.lmi_points)} LMI map points", file=out)
+        for line in integrity_lines(t["integrity"]):
+            print(f"warning: {line}", file=sys.stderr)
         for r in t["failures"]:
             print(f"  {r['estimator']:22s} failed {r['failed']}/{r['n']}", file=out)
         for r in t["best"]:
@@ -731,8 +779,16 @@ def cmd_campaign(args, out=None):
         raise CLIError(f"campaign: unexpected argument {args.dir!r} (campaign SPEC.toml --out DIR)")
     if not args.out:
         raise CLIError("campaign: --out DIR is required (the results folder)")
-    res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
-                       workers=args.workers, progress=args.progress)
+    from vehicle_observers.campaign.engine import CampaignStopped
+
+    try:
+        res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
+                           workers=args.workers, progress=args.progress)
+    except CampaignStopped as exc:
+        if exc.signum is None:
+            raise CLIError(str(exc)) from None
+        print(f"error: {exc}", file=sys.stderr)
+        return 128 + exc.signum
     print(res.line(), file=out)
     return 0
 

@@ -259,18 +259,15 @@ class ObserverBase:
 
 
 def check_data(t, u, y, x0, m: int, p: int, n: int, who: str = "observer"):
-    """Argument checks shared by every ``run``: shapes, finiteness, increasing time."""
-    t = np.ascontiguousarray(t, dtype=float)
-    if t.ndim != 1 or len(t) < 2:
-        raise ObserverArgumentError(f"{who}: t must be (N,) with N >= 2, got shape {t.shape}")
-    if not np.all(np.isfinite(t)) or not np.all(np.diff(t) > 0):
-        raise ObserverArgumentError(f"{who}: t must be finite and strictly increasing "
-                                    "(a time step dt <= 0 or a NaN time)")
+    """Argument checks shared by every ``run``: shapes, finiteness, increasing time, through
+    the package's one input conversion (:mod:`vehicle_observers.core.inputs`: lists, pandas
+    and polars accepted, ``datetime64`` time in seconds from the first sample)."""
+    from vehicle_observers.core.inputs import as_array, as_time
+
+    t = as_time(t, "t", who, min_len=2)
     out = [t]
     for arg, a, width in (("u", u, m), ("y", y, p)):
-        a = np.ascontiguousarray(a, dtype=float)
-        if a.ndim == 1:
-            a = a[:, None]
+        a = as_array(a, arg, who, ndim=2, allow_nan=True)
         if a.shape != (len(t), width):
             raise ObserverArgumentError(f"{who}: {arg} must be (N, {width}) = ({len(t)}, "
                                         f"{width}), got {a.shape}")
@@ -280,7 +277,7 @@ def check_data(t, u, y, x0, m: int, p: int, n: int, who: str = "observer"):
                                         f"column {col}")
         out.append(a)
     if x0 is not None:
-        x0 = np.ascontiguousarray(x0, dtype=float).ravel()
+        x0 = as_array(x0, "x0", who, ndim=None, allow_nan=True).ravel()
         if x0.shape != (n,) or not np.all(np.isfinite(x0)):
             raise ObserverArgumentError(f"{who}: x0 must be {n} finite values, got {x0}")
     out.append(x0)

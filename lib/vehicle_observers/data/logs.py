@@ -69,35 +69,60 @@ class DriveLog:
     source: str = ""
 
     def __post_init__(self):
-        """Refuse a log no consumer can use, naming the column and row: every schema channel
-        must be a 1-D array of finite numbers of the length of ``t`` (a NaN from a notebook
-        would otherwise surface as a NaN estimate or a solver error far from its cause);
-        ``extra`` columns must have that length (they may hold NaN: truth channels that are
-        not measured everywhere)."""
+        """Convert and refuse a log no consumer can use, naming the column and row
+        (:mod:`vehicle_observers.core.inputs`): lists, pandas and polars Series become float
+        arrays, a ``datetime64`` / ``timedelta64`` time seconds from the first sample;
+        ``t`` must be strictly increasing; every schema channel a 1-D array of finite
+        numbers of the length of ``t`` (a NaN from a notebook would otherwise surface as a
+        NaN estimate or a solver error far from its cause); ``extra`` columns must have
+        that length (they may hold NaN: truth channels that are not measured everywhere)."""
+        self.validate()
+
+    def validate(self):
+        """The checks of construction, again (a log whose arrays were replaced since, e.g.
+        two timestamps swapped, is refused where it enters the registry)."""
+        from vehicle_observers.core.inputs import as_array, as_time
+
         name = self.source or "DriveLog"
         n = None
         for c, a in _ATTR.items():
             v = getattr(self, a)
             if v is None:          # absent (an estimate read back has no steering, ...)
                 continue
-            v = np.asarray(v)
-            if v.ndim != 1 or not (np.issubdtype(v.dtype, np.number) or v.dtype == bool):
-                raise LogFormatError(f"{name}: column {c!r} must be a 1-D numeric array, got "
-                                     f"shape {v.shape} of {v.dtype}")
+            v = as_time(v, f"column {c!r}", name, LogFormatError) if a == "t" else \
+                as_array(v, f"column {c!r}", name, error=LogFormatError)
             if n is None:
                 n = len(v)
             elif len(v) != n:
                 raise LogFormatError(f"{name}: column {c!r} has {len(v)} rows, 't_s' has {n}")
-            if not np.isfinite(v).all():
-                bad = ~np.isfinite(v)
-                i = int(np.argmax(bad))
-                raise LogFormatError(f"{name}: column {c!r} has {int(bad.sum())} NaN/inf "
-                                     f"value(s), first at row {i} ({v[i]}); expected finite "
-                                     "numbers")
-        for c, v in self.extra.items():
-            if np.ndim(v) != 1 or len(v) != n:
+            if v is not getattr(self, a):
+                setattr(self, a, v)
+        for c, v in list(self.extra.items()):
+            v = as_array(v, f"extra column {c!r}", name, ndim=None, allow_nan=True,
+                         error=LogFormatError)
+            if v.ndim != 1 or len(v) != n:
                 raise LogFormatError(f"{name}: extra column {c!r} has shape {np.shape(v)}, "
                                      f"expected ({n},)")
+            self.extra[c] = v
+        return self
+
+    @classmethod
+    def from_frame(cls, frame, source: str = "") -> "DriveLog":
+        """A log from a pandas or polars DataFrame (or a mapping) of schema columns
+        (``t_s``, ``vx_mps``, ...; :data:`REQUIRED`, :data:`OPTIONAL`); other numeric
+        columns go to ``extra``. A missing required column or a column of text is refused
+        naming it."""
+        from vehicle_observers.core.inputs import frame_columns
+
+        cols = frame_columns(frame)
+        where = source or type(frame).__name__
+        missing = [c for c in REQUIRED if c not in cols]
+        if missing:
+            raise LogFormatError(f"{where}: missing column(s) {', '.join(map(repr, missing))} "
+                                 f"(columns: {', '.join(map(str, cols))})")
+        kw = {_ATTR[c]: v for c, v in cols.items() if c in _ATTR}
+        extra = {c: v for c, v in cols.items() if c not in _ATTR}
+        return cls(**kw, extra=extra, source=where)
 
     def __len__(self):
         return len(self.t)
@@ -140,6 +165,23 @@ class DriveLog:
     def to_csv(self, path):
         """Write in the schema; atomic (a temporary file renamed into place)."""
         write_csv(path, self.columns())
+
+
+def as_log(obj, source: str = "") -> DriveLog:
+    """The :class:`DriveLog` of a public entry's ``log`` argument: a DriveLog checked again
+    (:meth:`DriveLog.validate`), or a pandas / polars DataFrame or a mapping of schema
+    columns (:meth:`DriveLog.from_frame`); anything else refused naming its type."""
+    from vehicle_observers.core.inputs import is_frame
+
+    if isinstance(obj, DriveLog):
+        try:
+            return obj.validate()
+        except LogFormatError as exc:
+            raise LogFormatError(f"{source}: {exc}" if source else str(exc)) from None
+    if is_frame(obj) or isinstance(obj, dict):
+        return DriveLog.from_frame(obj, source)
+    raise LogFormatError(f"{source or 'log'}: expected a DriveLog, or a pandas / polars "
+                         f"DataFrame of schema columns, got {type(obj).__name__}")
 
 
 #: rows per batch when writing (the progress callback is called after each)

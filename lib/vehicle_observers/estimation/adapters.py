@@ -26,7 +26,6 @@ actuator/sensor fault, a different problem from estimating ``v_y`` on a variable
 
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 
@@ -75,34 +74,23 @@ def _design_key(kind: str, vehicle, dt, *modules) -> str:
 
 
 def _disk_design(kind, key_args, build, cache: bool):
-    """``build() -> design`` through the on-disk cache when ``cache`` (a pickle in
-    :func:`kalman_runs.cache_dir`, written atomically; an unreadable or stale entry is
-    rebuilt, an unwritable folder skipped; a design holding functions, e.g. the TS model's
-    premises, is not kept). Returns (design, seconds spent now)."""
-    import pickle
+    """``build() -> design`` through the on-disk cache when ``cache`` (an ``.npz`` data entry
+    in :func:`kalman_runs.cache_dir`, :mod:`vehicle_observers.core.cache`: no pickle, so a
+    planted file cannot run code; written atomically; an unreadable, stale or invalid entry
+    (a non-finite number, a ``P`` not positive definite) is rebuilt with a line naming it,
+    an unwritable folder skipped; a design holding functions, e.g. the TS model's premises,
+    is not kept). Returns (design, seconds spent now)."""
+    from vehicle_observers.core import cache as _cache
 
     t0 = time.perf_counter()
     if not cache:
         return build(), time.perf_counter() - t0
-    f = kalman_runs.cache_dir() / f"design-{kind}-{_design_key(kind, *key_args)}.pkl"
-    try:
-        des = pickle.loads(f.read_bytes())
+    f = kalman_runs.cache_dir() / f"design-{kind}-{_design_key(kind, *key_args)}.npz"
+    des = _cache.load(f, f"design-{kind}", _cache.check_finite)
+    if des is not None:
         return des, time.perf_counter() - t0
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError,
-            TypeError, ValueError):
-        pass
     des = build()
-    try:
-        data = pickle.dumps(des, protocol=pickle.HIGHEST_PROTOCOL)
-    except (pickle.PicklingError, AttributeError, TypeError):
-        return des, time.perf_counter() - t0         # holds functions: not kept on disk
-    try:
-        f.parent.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, f)
-    except OSError:
-        pass
+    _cache.save(f, des, f"design-{kind}", _cache.check_finite)
     return des, time.perf_counter() - t0
 
 

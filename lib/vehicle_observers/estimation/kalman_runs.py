@@ -7,8 +7,7 @@
 from __future__ import annotations
 
 import hashlib
-import json
-import os
+import math
 import time
 from pathlib import Path
 
@@ -99,26 +98,46 @@ def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
     return h.hexdigest()
 
 
+def _check_tuning(d: dict):
+    """A cached tuning: five finite noise variances (``q_b`` >= 0, the others > 0) and three
+    finite positive initial variances; else :class:`~vehicle_observers.core.cache.InvalidEntry`."""
+    from vehicle_observers.core.cache import InvalidEntry
+
+    th, P0 = d.get("theta"), d.get("P0")
+    if not (isinstance(th, list) and len(th) == 5 and isinstance(P0, list) and len(P0) == 3
+            and isinstance(d.get("source"), str)):
+        raise InvalidEntry("not a tuning entry of this version")
+    tun = KalmanTuning.from_theta(th, P0=P0)
+    for k in ("q_vy", "q_r", "q_b", "R_r", "R_ay"):
+        v = getattr(tun, k)
+        if not (math.isfinite(v) and (v >= 0.0 if k == "q_b" else v > 0.0)):
+            raise InvalidEntry(f"variance {k} = {v!r} is not "
+                               f"{'>= 0' if k == 'q_b' else '> 0'} and finite")
+    if not all(math.isfinite(float(v)) and float(v) > 0.0 for v in P0):
+        raise InvalidEntry(f"initial variances P0 = {P0} are not > 0 and finite")
+
+
 def _cache_get(key):
-    try:
-        d = json.loads((cache_dir() / f"tuning-{key}.json").read_text())
-        return KalmanTuning.from_theta(d["theta"], source=d["source"] + " (cached)",
-                                       P0=tuple(d["P0"]))
-    except (OSError, ValueError, KeyError, TypeError):
+    from vehicle_observers.core import cache as _cache
+
+    d = _cache.load_json(cache_dir() / f"tuning-{key}.json", "kalman-tuning", _check_tuning)
+    if d is None:
         return None
+    return KalmanTuning.from_theta(d["theta"], source=d["source"] + " (cached)",
+                                   P0=tuple(d["P0"]))
 
 
 def _cache_put(key, tun: KalmanTuning):
-    """Store a tuning (atomic rename; a read-only cache folder is silently skipped)."""
-    f = cache_dir() / f"tuning-{key}.json"
+    """Store a tuning (atomic rename; a read-only cache folder is silently skipped; a tuning
+    that would not pass :func:`_check_tuning` is not kept)."""
+    from vehicle_observers.core import cache as _cache
+
+    d = {"theta": tun.theta().tolist(), "P0": list(tun.P0), "source": tun.source}
     try:
-        f.parent.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps({"theta": tun.theta().tolist(), "P0": list(tun.P0),
-                                   "source": tun.source}))
-        os.replace(tmp, f)
-    except OSError:
-        pass
+        _check_tuning(d)
+    except ValueError:
+        return
+    _cache.save_json(cache_dir() / f"tuning-{key}.json", d, "kalman-tuning")
 
 
 def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:

@@ -82,7 +82,13 @@ class EstimatorSpec:
 
     def estimate(self, log: DriveLog, vehicle: Vehicle, **opts) -> Trajectory:
         """:meth:`check`, then ``run``; the result must be a :class:`Trajectory` of the
-        log's length (a plug-in returning anything else is named in the error)."""
+        log's length (a plug-in returning anything else is named in the error). ``log``: a
+        :class:`DriveLog` (checked again: strictly increasing time, finite channels) or a
+        pandas / polars DataFrame of schema columns
+        (:func:`vehicle_observers.data.logs.as_log`)."""
+        from vehicle_observers.data.logs import as_log
+
+        log = as_log(log, f"observer {self.name!r}: log")
         self.check(log, vehicle)
         out = self.run(log, vehicle, **opts)
         if not isinstance(out, Trajectory) or len(out) != len(log):

@@ -66,6 +66,20 @@ class LateralParams:
     l_s: float = 0.5
     name: str = field(default="vehicle", compare=False)
 
+    def __post_init__(self):
+        """Refuse constants no car has, naming them (a negative mass would otherwise reach
+        the LMI solver and come back as "infeasible"): ``m``, ``I_z``, ``a_f``, ``a_r``
+        finite and > 0; ``r_f``, ``r_r``, ``l_s`` finite and >= 0."""
+        for k in ("m", "I_z", "a_f", "a_r", "r_f", "r_r", "l_s"):
+            v = getattr(self, k)
+            ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) \
+                and np.isfinite(v) and (v > 0 if k in ("m", "I_z", "a_f", "a_r") else v >= 0)
+            if not ok:
+                raise ObserverArgumentError(
+                    f"LateralParams.{k} must be a finite number "
+                    f"{'> 0' if k in ('m', 'I_z', 'a_f', 'a_r') else '>= 0'} (SI units), "
+                    f"got {v!r}")
+
     def as_array(self) -> np.ndarray:
         """Packed float vector (:data:`N_PARAMS`,) for the numba kernels, laid out by the index
         constants :data:`M`, :data:`I_Z`, :data:`A_F`, :data:`A_R`, :data:`R_F`,

@@ -128,6 +128,9 @@ class Report:
 
     def __init__(self, notebook: str, figures_dir=None, quick: bool = False,
                  seed: int = 0, formats=("png", "pdf"), show: bool | None = None):
+        from vehicle_observers.results.parameters import validate_parameters
+
+        quick, seed = validate_parameters(quick=quick, seed=seed)   # before any folder
         self.notebook = notebook
         base = interactive_dir() if figures_dir is None else Path(figures_dir)
         self.dir = base / notebook
