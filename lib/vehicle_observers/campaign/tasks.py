@@ -41,6 +41,7 @@ def result_schema():
     import pyarrow as pa
 
     fields = [("task", pa.int64()), ("batch", pa.int64()), ("estimator", pa.string()),
+              ("options", pa.string()),
               ("plant", pa.string()), ("car", pa.string()), ("manoeuvre", pa.string()),
               ("variant", pa.int64()),
               *((f"err_{k}", pa.float64()) for k in S.ERROR_KEYS),
@@ -122,7 +123,9 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     veh0 = T.car_vehicle(tk.car)
     lo, hi = v.speed if v.speed is not None else (veh0.uncertainty["vx_min"],
                                                   veh0.uncertainty["vx_max"])
+    name, opts = spec.estimator_of(tk.estimator)
     row = {"task": tk.index, "batch": int(batch_id), "estimator": tk.estimator,
+           "options": json.dumps(opts, sort_keys=True) if opts else "",
            "plant": tk.plant, "car": tk.car, "manoeuvre": S.manoeuvre_id(tk.manoeuvre),
            "variant": tk.variant, **{f"err_{k}": errors[k] for k in S.ERROR_KEYS},
            "box_rel": v.rel, "box_vx_min": float(lo), "box_vx_max": float(hi),
@@ -150,7 +153,7 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
             and not any(bias.values()) and (tk.noise == 0.0 or sens["std"]["vx"] == 0.0)
             and lo <= float(np.min(tr.vx)) and float(np.max(tr.vx)) <= hi)
         avail = estimators if estimators is not None else registry.available(spec.plugins)
-        est = avail[tk.estimator].estimate(log, veh)
+        est = avail[name].estimate(log, veh, **opts)
         bad = [n for n, c in est.columns.items() if not np.all(np.isfinite(c))]
         if bad:
             k = int(np.argmax(~np.isfinite(est.columns[bad[0]])))
@@ -188,7 +191,7 @@ def run_batch(raw: dict, batch_id: int, start: int, stop: int, truths=None) -> d
     order). ``truths``: ``[Truth, ...]`` computed elsewhere (else simulated here)."""
     spec = spec_of(raw)
     tmap = None if truths is None else {t.key: t for t in truths}
-    avail = estimators_of(spec.plugins, {p[0] for p in spec.pairs})
+    avail = estimators_of(spec.plugins, {spec.estimator_of(p[0])[0] for p in spec.pairs})
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         rows = [run_task(spec, i, batch_id, tmap, avail) for i in range(start, stop)]
