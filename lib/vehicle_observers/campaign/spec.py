@@ -86,20 +86,12 @@ from pathlib import Path
 import numpy as np
 import tomllib
 
+from vehicle_observers.campaign.plants import COMMONROAD_CARS, cars_of, get_plant, plants
 from vehicle_observers.core.errors import ObserverArgumentError, RegistryError
 
 #: version of the plan and of the result columns (a folder of another version is refused)
 FORMAT = 1
-PLANTS = ("multibody", "yaw-drift", "lpv")
-#: CommonRoad cars of the multi-body plant (:func:`vehicle_observers.data.plant.plant_parameters`)
-COMMONROAD_CARS = {"ford_escort": 1, "bmw_320i": 2, "vw_vanagon": 3}
-#: native log rate of each plant [Hz] (``lpv`` is simulated at the sample rate itself)
-NATIVE_RATE = {"multibody": 100.0, "yaw-drift": 1000.0, "lpv": None}
-#: log columns each plant gives (beyond the four every log has)
-PLANT_COLUMNS = {"multibody": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N"),
-                 "yaw-drift": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N", "yL_m", "psiL_rad",
-                               "rho_1pm"),
-                 "lpv": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N")}
+#: the truth plants: :mod:`vehicle_observers.campaign.plants` (registered, open to plug-ins)
 ERROR_KEYS = ("mass", "inertia", "a_f", "a_r", "stiffness", "stiffness_front",
               "stiffness_rear", "friction")
 DESIGNS = ("one-at-a-time", "factorial", "sample")
@@ -274,7 +266,8 @@ class Task:
 def truth_key(plant, car, manoeuvre, rate) -> tuple:
     """Key of a noise-free truth: the ``lpv`` plant is simulated at the sample rate, the
     others at their native rate (decimated afterwards)."""
-    return (plant, car, manoeuvre_id(manoeuvre), float(rate) if plant == "lpv" else None)
+    at_rate = get_plant(plant).native_rate is None
+    return (plant, car, manoeuvre_id(manoeuvre), float(rate) if at_rate else None)
 
 
 def manoeuvre_id(man) -> str:
@@ -552,10 +545,11 @@ def _normalise(doc: dict, where: str) -> dict:
         if not isinstance(t, str) or ":" not in t:
             _err(where, "truth.plants", f"entries are \"plant:car\", got {t!r}")
         pl, car = t.split(":", 1)
-        if pl not in PLANTS:
+        known = plants()
+        if pl not in known:
             _err(where, "truth.plants", f"unknown plant {pl!r} in {t!r} (expected "
-                                        f"{', '.join(PLANTS)})")
-        cars = tuple(COMMONROAD_CARS) + (() if pl == "multibody" else tuple(sorted(files)))
+                                        f"{', '.join(known)})")
+        cars = cars_of(known[pl])
         if car not in cars:
             _err(where, "truth.plants", f"unknown car {car!r} for plant {pl!r} (expected "
                                         f"{', '.join(cars)})")
@@ -642,7 +636,7 @@ def _normalise(doc: dict, where: str) -> dict:
         _err(where, "sensors.bias", "lists a bias case twice")
     rates = _grid(where, "sensors.rates_hz", se.get("rates_hz", [100.0]), 0.0, 1e4, lo_open=True)
     for pl, _car in truths:
-        nat = NATIVE_RATE[pl]
+        nat = get_plant(pl).native_rate
         for r in rates:
             q = nat / r if nat else 1.0
             if nat and (abs(q - round(q)) > 1e-9 or round(q) < 1):
@@ -691,7 +685,7 @@ def _normalise(doc: dict, where: str) -> dict:
         for pl, car in truths:
             if n in only and f"{pl}:{car}" not in only[n]:
                 continue
-            missing = [c for c in s.columns if c not in PLANT_COLUMNS[pl]]
+            missing = [c for c in s.columns if c not in get_plant(pl).columns]
             if missing:
                 if every and n not in refs:
                     continue
