@@ -716,9 +716,10 @@ def main(argv=None) -> int:
                 return _run(args)
         with warnings.catch_warnings(record=True) as seen:
             warnings.simplefilter("always")   # recorded: only a plug-in's are reported
-            code = _run(args)
-        _plugin_warnings(seen)
-        return code
+            try:
+                return _run(args)
+            finally:
+                _plugin_warnings(seen)
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
         if debug and exc.__cause__ is not None:

@@ -403,7 +403,12 @@ def plugin_error(spec: EstimatorSpec, exc: BaseException) -> PluginError | None:
     where = _innermost(exc, files)
     if isinstance(exc, (LogFormatError, VehicleFileError)) and not where:
         return None
-    at = where or f"module {spec.origin}"
+    if not where:      # raised in library code the plug-in called: name both
+        tb = traceback.extract_tb(exc.__traceback__)
+        inner = f", raised in {tb[-1].filename}:{tb[-1].lineno} ({tb[-1].name})" if tb else ""
+        at = f"{spec.source_file or 'module ' + spec.origin}{inner}"
+    else:
+        at = where
     msg = str(exc).splitlines()[0] if str(exc) else ""
     return PluginError(f"plug-in estimator {spec.name!r} raised {type(exc).__name__} at {at}"
                        + (f": {msg}" if msg else ""), spec.name, where)
