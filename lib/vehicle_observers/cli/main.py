@@ -132,9 +132,11 @@ def _parser():
                    help="for observer writers: show every warning (numpy's included) and the "
                         "traceback of an error")
     sub = p.add_subparsers(dest="cmd", required=True)
-    sub.add_parser("observers", help="list the observers and what each needs")
+    _add_plugin_options(sub.add_parser("observers", help="list the observers and what each "
+                                                         "needs"))
     e = sub.add_parser("estimate", help="run one observer on a log and write the estimates")
     _add_common(e)
+    _add_plugin_options(e)
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
     e.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="options",
                    help="an option of the observer, typed from its declared default "
@@ -153,9 +155,19 @@ def _parser():
     return p
 
 
+def _add_plugin_options(p):
+    """``--plugin`` and ``--debug`` after a command too (``estimate ... --plugin f.py``)."""
+    p.add_argument("--plugin", action="append", default=[], dest="sub_plugin",
+                   metavar="MODULE", help="as before the command: import MODULE or FILE.py")
+    p.add_argument("--debug", action="store_true", dest="sub_debug",
+                   help="as before the command: warnings and tracebacks shown")
+
+
 def _plugins(args) -> list[str]:
-    """``--plugin`` values (module names or ``.py`` paths: :func:`registry.load_plugin`)."""
-    return list(getattr(args, "plugin", None) or [])
+    """``--plugin`` values, before and after the command (module names or ``.py`` paths:
+    :func:`registry.load_plugin`)."""
+    return list(getattr(args, "plugin", None) or []) + list(getattr(args, "sub_plugin", None)
+                                                             or [])
 
 
 def _available(args):
@@ -280,7 +292,7 @@ def _inputs(args) -> dict:
     out = {"the input log": args.log}
     if getattr(args, "vehicle", None):
         out["the vehicle file"] = _vehicle_path(args.vehicle)
-    for m in getattr(args, "plugin", None) or []:
+    for m in _plugins(args):
         if m.endswith(".py"):
             out[f"the plug-in {m}"] = m
     return out
@@ -708,7 +720,7 @@ def main(argv=None) -> int:
             sig = getattr(signal, name, None)
             if sig is not None:
                 prev[sig] = signal.signal(sig, _on_signal)
-    debug = bool(getattr(args, "debug", False))
+    debug = bool(getattr(args, "debug", False) or getattr(args, "sub_debug", False))
     try:
         if debug:
             with warnings.catch_warnings():
@@ -813,6 +825,7 @@ def _campaign_parser(sub):
                    help="when the code changed since the folder's results were computed "
                         "(package version, an estimator's or plug-in's source, options): "
                         "recompute the batches it affects (otherwise refused)")
+    _add_plugin_options(c)
     g = c.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
