@@ -67,9 +67,8 @@ def register_plant(name: str, simulate: Callable, *, native_rate: float | None,
 
 
 def plants() -> dict[str, PlantSpec]:
-    """The registered plants (the built-in ones registered on first use)."""
-    import vehicle_observers.campaign.truths  # noqa: F401  (registers the built-in plants)
-
+    """The registered plants (the built-in ones are registered by
+    :mod:`vehicle_observers.campaign.truths`, imported with the package)."""
     return dict(_PLANTS)
 
 
