@@ -2,7 +2,10 @@
 
 Subpackages by concept, imports pointing one way (``tests/test_architecture.py``)::
 
-    core <- models <- design, data <- observers, results <- baselines <- papers <- cli <- bench
+    core <- models <- design, data <- observers, results <- baselines <- estimation
+         <- campaign <- cli <- bench
+
+The paper reproductions live beside the library, in :mod:`vehicle_observers_papers`.
 
 - :mod:`.core`       errors, error metrics, signals, array and timing helpers.
 - :mod:`.models`     tyres, Takagi-Sugeno forms, lateral / bicycle / planar / full-car models, vehicle files.
@@ -10,8 +13,9 @@ Subpackages by concept, imports pointing one way (``tests/test_architecture.py``
 - :mod:`.data`       drive logs, scenario generators, road profiles, identification.
 - :mod:`.observers`  one module per observer kind, each citing its paper; differentiators.
 - :mod:`.baselines`  EKF/UKF/RTS baselines (filterpy), one per observer's own data.
+- :mod:`.estimation` estimators on drive logs: the registry (open to plug-ins), provenance.
+- :mod:`.campaign`   robustness campaigns (spec, truths, tasks, store, engines, report).
 - :mod:`.results`    figures, metrics.json and claims; the papermill pipeline.
-- :mod:`.papers`     the reproductions: printed constants and each notebook's experiments.
 - :mod:`.cli`        ``python -m vehicle_observers``.
 - :mod:`.bench`      ``make bench``.
 """

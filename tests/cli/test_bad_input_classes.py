@@ -165,7 +165,7 @@ def test_users_files_named_like_partial_files_survive(capsys, run):
                              "--max-gap", "0.001"), "--max-gap", dirs=[run])
     assert all(u.read_text() == "my notes" for u in users)
     assert sorted(p.name for p in run.iterdir()) == sorted(
-        ["log.csv", "car.toml", "est.csv"] + [u.name for u in users])
+        ["log.csv", "car.toml", "est.csv", "est.csv.provenance.json"] + [u.name for u in users])
 
 
 @pytest.mark.parametrize("name", ["est.csv.gz", "EST.CSV.GZ"])

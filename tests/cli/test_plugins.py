@@ -121,9 +121,10 @@ def test_a_broken_plugin_is_one_line_naming_it(tmp_path):
     bad = tmp_path / "broken_obs.py"
     bad.write_text("raise ImportError('needs a package that is not installed')\n")
     code, out, err = cli("--plugin", bad, "observers")
-    assert code == 2
+    assert code == 3                 # the plug-in's code raised: never "bad input"
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "broken_obs" in lines[0] and "not installed" in lines[0], err
+    assert f"{bad}:1" in lines[0], err           # its file:line
     code, out, err = cli("--plugin", tmp_path / "missing.py", "observers")
     assert code == 2 and len(err.strip().splitlines()) == 1 and "missing.py" in err
 
@@ -141,7 +142,7 @@ def test_a_plugin_returning_no_trajectory_is_named(tmp_path, user_log):
     code, out, err = cli("--plugin", tmp_path / "wrong_obs.py", "estimate", log_path,
                          "--vehicle", "yacine2015", "--observer", "wrong-shape", "--out",
                          tmp_path / "o.csv")
-    assert code == 2, err
+    assert code == 3, err            # a plug-in's defect, not bad input
     assert len(err.strip().splitlines()) == 1 and "wrong-shape" in err and "Trajectory" in err
     assert not (tmp_path / "o.csv").exists()
 

@@ -55,9 +55,11 @@ def test_emulated_runs_follow_theory(m):
     assert m["satory_n3.interval-ifqir2017.width_vy"] > m["satory_n1.interval-ifqir2017.width_vy"]
     # nonlinear manoeuvre (7 deg front slip at 17 m/s): the nonlinear filters stay accurate
     assert m["swd.ekf.rmse_vy"] < 0.02
-    # on the same window the UKF is not worse than the same-model EKF (filterpy) by > 10 %
-    assert m["swd.ukf.samples"] == m["swd.ekf-filterpy.samples"]
-    assert m["swd.ukf.rmse_vy"] <= 1.1 * m["swd.ekf-filterpy.rmse_vy"]
+    # on the same samples (the compiled UKF runs on the whole log, like the compiled EKF;
+    # only filterpy's EKF and UKF on a window) the UKF is not worse than the same-model EKF
+    # by > 10 %
+    assert m["swd.ukf.samples"] == m["swd.ekf.samples"] > m["swd.ekf-filterpy.samples"]
+    assert m["swd.ukf.rmse_vy"] <= 1.1 * m["swd.ekf.rmse_vy"]
 
 
 def test_no_wall_clock_value_is_committed(m):

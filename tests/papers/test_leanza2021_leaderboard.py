@@ -81,3 +81,17 @@ def test_claims_judge_the_targets_from_the_metrics():
     flag = "beats v_y = 0 or flagged uninformative"
     assert {c.item: c.verdict for c in rep.claims}[f"plant_x: {flag}"] == "differs"
     assert not any("us_per_step" in k or "seconds" in k for k in LB.metrics(_table()))
+
+
+def test_slow_names_exactly_the_pure_python_filterpy_references():
+    """Catches SLOW naming the compiled UKF (``ukf``: its rows were left out of the
+    leaderboard while ``ukf-filterpy`` ran) instead of filterpy's: SLOW must be the registered
+    estimators that run filterpy, in both the leaderboard and the benchmark study."""
+    from vehicle_observers.estimation import available
+    from vehicle_observers_papers.benchmark_study import runs
+
+    specs = available()
+    filterpy = {n for n, s in specs.items() if "with filterpy" in s.description}
+    assert filterpy == {"ekf-filterpy", "ukf-filterpy"}
+    assert set(LB.SLOW) == filterpy and set(runs.SLOW) == filterpy
+    assert "numba" in specs["ukf"].description

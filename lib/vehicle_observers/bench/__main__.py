@@ -1,7 +1,9 @@
-"""``python -m vehicle_observers.bench [--quick] [--plugin MODULE ...]``: the speed of every
-registered estimator (:mod:`vehicle_observers.bench.estimators`) and of the command line end
-to end (:mod:`vehicle_observers.bench.cli`). ``make bench`` runs them through the
-reproductions' benchmark, ``python -m vehicle_observers_papers.benchmark_study``."""
+"""``python -m vehicle_observers.bench [--quick] [--plugin MODULE|FILE.py ...] [--only NAME ...]
+[--log LOG --vehicle VEHICLE]``: the speed of every registered estimator
+(:mod:`vehicle_observers.bench.estimators`) and of the command line end to end
+(:mod:`vehicle_observers.bench.cli`; skipped with ``--only``, which times only the estimators
+named, e.g. one plug-in). ``make bench`` runs them through the reproductions' benchmark,
+``python -m vehicle_observers_papers.benchmark_study``."""
 
 import sys
 
@@ -10,11 +12,17 @@ from vehicle_observers.results.tables import show_table
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    quick = "--quick" in argv
-    rows = estimators.run(quick=quick, plugins=estimators.plugin_args(argv))
-    print(estimators.table(rows, f"every registered estimator on the {estimators.VEHICLE} "
-                                 f"sine with dwell ({rows[0]['steps'] if rows else 0} steps)"))
+    args = estimators.parse_args(sys.argv[1:] if argv is None else list(argv),
+                                 "python -m vehicle_observers.bench")
+    quick = args.quick
+    only, log, vehicle = estimators.selection(args)
+    rows = estimators.run(quick=quick, plugins=args.plugin, names=only, log=log,
+                          vehicle=vehicle)
+    where = log.source if log is not None else f"the {estimators.VEHICLE} sine with dwell"
+    print(estimators.table(rows, f"{'the chosen' if only else 'every registered'} estimator(s) "
+                                 f"on {where} ({rows[0]['steps'] if rows else 0} steps)"))
+    if only:
+        return 0
     print()
     cli_rows = cli.run(quick=quick)
     cols = [c for c in dict.fromkeys(k for r in cli_rows for k in r) if c != "cli_line"]

@@ -20,7 +20,14 @@ whole log (once when a run takes more than :data:`LONG_S` s); the best run count
 * ``causal``, ``interval``, ``origin`` of the registry entry; ``error``: why an estimator did
   not run (a column the log lacks, an exception), with NaN times.
 
-    python -m vehicle_observers.bench.estimators [--quick] [--plugin MODULE ...]
+    python -m vehicle_observers.bench.estimators [--quick] [--plugin MODULE|FILE.py ...]
+        [--only NAME ...] [--log LOG.csv --vehicle VEHICLE]
+
+``--plugin`` loads a plug-in like the command line (a module name or a ``.py`` file:
+:func:`vehicle_observers.estimation.registry.load_plugin`); ``--only NAME`` (repeatable, or
+comma-separated) times only those estimators (``ekf-filterpy`` is added as the reference of
+the speed-up column); ``--log`` / ``--vehicle`` time them on another log (e.g. the shipped
+Revs log, which has ``ax_mps2``) instead of the generated one.
 """
 
 from __future__ import annotations
@@ -93,16 +100,16 @@ def time_estimator(spec, log, vehicle, tuning=None) -> dict:
     return row
 
 
-def run(quick: bool = False, plugins=(), names=None, log=None) -> list[dict]:
+def run(quick: bool = False, plugins=(), names=None, log=None, vehicle=None) -> list[dict]:
     """Rows ``{"component", "steps", "seconds", "us_per_step", "speedup_vs_filterpy_ekf",
     "causal", "interval", "origin"[, "error"]}``, one per registered estimator in
     registration order (plug-in modules ``plugins`` loaded first; ``names``: only these;
-    ``log``: another drive log than :func:`bench_log`)."""
+    ``log``, ``vehicle``: another drive log than :func:`bench_log` and its vehicle file)."""
     specs = available(plugins)
     if names is not None:
         specs = {k: v for k, v in specs.items() if k in names}
     log = bench_log(quick) if log is None else log
-    vehicle = load_vehicle(VEHICLE)
+    vehicle = load_vehicle(VEHICLE) if vehicle is None else vehicle
     tuning = KalmanTuning(source="sensor-spec defaults (speed benchmark)")
     rows = [time_estimator(spec, log, vehicle, tuning) for spec in specs.values()]
     ref = next((r["us_per_step"] for r in rows if r["component"] == REFERENCE), float("nan"))
@@ -131,10 +138,52 @@ def plugin_args(argv) -> list[str]:
     return [argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--plugin"]
 
 
+def parse_args(argv, prog="python -m vehicle_observers.bench.estimators"):
+    """The bench's options (module docstring)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog=prog)
+    ap.add_argument("--quick", action="store_true", help="a shorter generated log")
+    ap.add_argument("--plugin", action="append", default=[], metavar="MODULE|FILE.py")
+    ap.add_argument("--only", action="append", default=[], metavar="NAME",
+                    help="time only these estimators (repeatable or comma-separated)")
+    ap.add_argument("--log", help="time on this drive log instead of the generated one")
+    ap.add_argument("--vehicle", help="the vehicle file (or built-in name) of --log")
+    return ap.parse_args(argv)
+
+
+def selection(args) -> tuple[list[str] | None, object, object]:
+    """``(names or None, log or None, vehicle or None)`` of parsed options; raises
+    ``SystemExit(2)`` with one line on an unknown name or a log without a vehicle."""
+    from vehicle_observers.core.errors import RegistryError
+
+    try:
+        specs = available(args.plugin)
+    except RegistryError as exc:
+        sys.exit(f"error: {exc}")
+    only = [n.strip() for o in args.only for n in o.split(",") if n.strip()] or None
+    if only:
+        bad = [n for n in only if n not in specs]
+        if bad:
+            sys.exit(f"error: --only: unknown estimator(s) {', '.join(bad)}; available: "
+                     f"{', '.join(specs)}")
+        only = list(dict.fromkeys([*only, REFERENCE]))
+    log = vehicle = None
+    if args.log:
+        if not args.vehicle:
+            sys.exit("error: --log needs --vehicle (the log's vehicle file)")
+        from vehicle_observers.data.logs import load_log
+
+        log, vehicle = load_log(args.log, min_vx=None), load_vehicle(args.vehicle)
+    return only, log, vehicle
+
+
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    rows = run(quick="--quick" in argv, plugins=plugin_args(argv))
-    print(table(rows, f"every registered estimator on the {VEHICLE} sine with dwell "
+    args = parse_args(sys.argv[1:] if argv is None else list(argv))
+    only, log, vehicle = selection(args)
+    rows = run(quick=args.quick, plugins=args.plugin, names=only, log=log, vehicle=vehicle)
+    print(table(rows, f"{'the chosen' if only else 'every registered'} estimator(s) on "
+                      f"{log.source if log is not None else f'the {VEHICLE} sine with dwell'} "
                       f"({rows[0]['steps'] if rows else 0} steps)"))
     return 0
 

@@ -1,6 +1,7 @@
 """Run a campaign: serially or on Dask distributed, resumable, every batch saved at once.
 
-    run(spec, out_dir, scheduler=None, engine="dask", workers=None, progress=None)
+    run(spec, out_dir, scheduler=None, engine="dask", workers=None, progress=None,
+        plugins=(), recompute=False)
 
 ``engine="dask"`` without ``scheduler`` starts an embedded ``LocalCluster`` on 127.0.0.1 with
 one single-threaded worker *process* per core (``processes=True, threads_per_worker=1``;
@@ -19,6 +20,12 @@ batches that need them. Each finished batch is written at once by this process
 present. The rows do not depend on the engine, the number of workers, the order of
 completion or on a worker lost mid-run (its batches are recomputed): every random draw is
 keyed by the task (:func:`~vehicle_observers.campaign.spec.seed_sequence`).
+
+The folder records the provenance of its results (:mod:`vehicle_observers.campaign.provenance`:
+package version, source hash of every estimator's module and plug-in): a resume with other
+code is refused with one line naming what changed, or with ``recompute=True`` (``campaign
+--recompute``) the batches holding the affected estimators are deleted and run again; old
+and new rows are never mixed.
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from vehicle_observers.campaign import lmi_map, store, tasks
+from vehicle_observers.campaign import lmi_map, provenance, store, tasks
 from vehicle_observers.campaign.spec import SpecError, load_spec
 
 ENGINES = ("dask", "serial")
@@ -58,7 +65,7 @@ class CampaignStopped(SpecError):
         self.signum = signum
 
 
-def provenance(spec) -> dict:
+def batch_provenance(spec) -> dict:
     """What produced a batch file, stored in its metadata (:func:`store.batch_meta`): the
     package version and the spec's plug-in modules."""
     import vehicle_observers
@@ -133,14 +140,17 @@ class CampaignSummary:
 
 
 def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
-        workers: int | None = None, progress: bool | None = None) -> CampaignSummary:
+        workers: int | None = None, progress: bool | None = None, plugins=(),
+        recompute: bool = False) -> CampaignSummary:
     """Run (or resume) the campaign ``spec`` (path, TOML text, dict or
     :class:`~vehicle_observers.campaign.spec.Spec`) into ``out_dir`` (module docstring).
-    ``progress``: a tqdm bar on stderr (default: when stderr is a terminal). Raises
+    ``progress``: a tqdm bar on stderr (default: when stderr is a terminal); ``plugins``:
+    module names or ``.py`` paths added to the spec's ``plugins`` (loaded here and on every
+    worker); ``recompute``: run again the batches whose code changed (else refused). Raises
     :class:`~vehicle_observers.campaign.spec.SpecError` before anything runs when the spec,
-    the engine options or the folder are wrong."""
+    the engine options, the folder or its code provenance are wrong."""
     t_start = time.perf_counter()
-    spec = load_spec(spec)
+    spec = _with_plugins(spec, plugins)
     if engine not in ENGINES:
         raise SpecError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if scheduler is not None and engine != "dask":
@@ -152,6 +162,7 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
                         "address the cluster's own workers run")
     out = Path(out_dir)
     store.prepare(out, spec)
+    check_provenance(out, spec, recompute)
     done = store.done_batches(out, "results", spec)
     ldone = store.done_batches(out, "lmi", spec)
     pending = [b for b in spec.batches() if b[0] not in done]
@@ -167,7 +178,7 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
     rschema, lschema = tasks.result_schema(), lmi_map.schema()
     ranges = {("results", k): (a, b) for k, a, b in pending}
     ranges.update({("lmi", k): (a, b) for k, a, b in lpending})
-    prov = provenance(spec)
+    prov = batch_provenance(spec)
     written = []
 
     def save(kind, bid, cols):
@@ -217,6 +228,64 @@ def run(spec, out_dir, scheduler: str | None = None, engine: str = "dask",
                            sum(b - a for _, a, b in pending), failed, len(spec.lmi_points),
                            l_before, sum(b - a for _, a, b in lpending),
                            time.perf_counter() - t_start, engine, n_workers, fails)
+
+
+def _with_plugins(spec, plugins):
+    """The spec with ``plugins`` (``.py`` paths made absolute) added to its ``plugins`` key;
+    they are loaded first, so that the spec may name their estimators."""
+    from vehicle_observers.core.errors import RegistryError
+    from vehicle_observers.estimation import registry
+
+    refs = [str(Path(p).resolve()) if str(p).endswith(".py") else str(p) for p in plugins]
+    if not refs:
+        return load_spec(spec)
+    try:
+        registry.load_plugins(refs)
+    except RegistryError as exc:
+        raise SpecError(f"--plugin: {exc}") from None
+    s = load_spec(spec)
+    doc = dict(s.raw)
+    doc["plugins"] = list(dict.fromkeys([*doc.get("plugins", []), *refs]))
+    from vehicle_observers.campaign.spec import Spec
+
+    return Spec(doc, s.source)
+
+
+def spec_provenance(spec) -> dict:
+    """:func:`~vehicle_observers.campaign.provenance.code_provenance` of the estimators,
+    options and plug-ins of ``spec``."""
+    from vehicle_observers.campaign.provenance import code_provenance
+
+    avail = tasks.estimators_of(spec.plugins)
+    labels = list(dict.fromkeys(p[0] for p in spec.pairs))
+    names = {spec.estimator_of(lab)[0] for lab in labels}
+    return code_provenance({n: avail[n] for n in sorted(names)},
+                           {lab: spec.estimator_of(lab)[1] for lab in labels}, spec.plugins)
+
+
+def check_provenance(out: Path, spec, recompute: bool = False):
+    """Compare the folder's recorded provenance with this code's; refuse a difference (one
+    line naming it) unless ``recompute``, which deletes the result batches of the affected
+    estimators (all of them when the package version, a plug-in or the options changed).
+    A folder with results and no record is treated as of unknown code. Then record this
+    code's provenance."""
+    new = spec_provenance(spec)
+    old = provenance.read(out)
+    done = store.done_batches(out, "results")
+    if done and old != new:
+        what = provenance.changes(old, new) if old else ["no provenance recorded"]
+        if what:
+            if not recompute:
+                raise SpecError(f"{out}: its results were computed by other code "
+                                f"({'; '.join(what)}): use another folder, or --recompute "
+                                "to run the affected batches again")
+            aff = provenance.affected_estimators(old, new) if old else None
+            for bid, a, b in spec.batches():
+                if bid in done and (aff is None or any(
+                        spec.estimator_of(spec.task(i).estimator)[0] in aff
+                        for i in range(a, b))):
+                    store.batch_path(out, "results", bid).unlink(missing_ok=True)
+    provenance.write(out, new)
 
 
 def local_cluster(workers: int | None = None):

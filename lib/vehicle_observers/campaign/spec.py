@@ -9,10 +9,14 @@ truth is known, with the *observer's* vehicle file perturbed, and scores each ru
     name = "robustness"
     seed = 0                  # campaign seed: every random draw derives from it (see below)
     repetitions = 2           # seeded repetitions of every noisy log
-    estimators = ["ekf", {name = "interval-coordinates", plants = ["lpv:bmw_320i"]}]
-                              # registry names (a table: on those plants only), or "all"
+    estimators = ["ekf", {name = "interval-coordinates", plants = ["lpv:bmw_320i"]},
+                  {name = "my-observer", options = {gain = [10.0, 20.0]}}]
+                              # registry names, or "all"; a table: on those plants only
+                              # (plants), with those options (options: a list of values
+                              # is a sweep axis: one estimator "name[gain=10.0]" per value)
     references = ["open-loop-linear", "linear-kf"] # always run too (ratios of the report)
-    plugins = []              # modules registering more estimators (imported on the workers)
+    plugins = []              # modules or .py files registering more estimators (imported
+                              # on the workers; the command line's --plugin adds to them)
     batch_size = "auto"       # simulations per Dask task (auto: 64, fewer below 4096
                               # simulations, more above 128000: at most 2000 tasks)
     timeout_s = 60.0          # a simulation running longer is stopped and recorded as
@@ -90,20 +94,12 @@ from pathlib import Path
 import numpy as np
 import tomllib
 
+from vehicle_observers.campaign.plants import COMMONROAD_CARS, cars_of, get_plant, plants
 from vehicle_observers.core.errors import ObserverArgumentError, RegistryError
 
 #: version of the plan and of the result columns (a folder of another version is refused)
 FORMAT = 1
-PLANTS = ("multibody", "yaw-drift", "lpv")
-#: CommonRoad cars of the multi-body plant (:func:`vehicle_observers.data.plant.plant_parameters`)
-COMMONROAD_CARS = {"ford_escort": 1, "bmw_320i": 2, "vw_vanagon": 3}
-#: native log rate of each plant [Hz] (``lpv`` is simulated at the sample rate itself)
-NATIVE_RATE = {"multibody": 100.0, "yaw-drift": 1000.0, "lpv": None}
-#: log columns each plant gives (beyond the four every log has)
-PLANT_COLUMNS = {"multibody": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N"),
-                 "yaw-drift": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N", "yL_m", "psiL_rad",
-                               "rho_1pm"),
-                 "lpv": ("ay_mps2", "vy_mps", "Ff_N", "Fr_N")}
+#: the truth plants: :mod:`vehicle_observers.campaign.plants` (registered, open to plug-ins)
 ERROR_KEYS = ("mass", "inertia", "a_f", "a_r", "stiffness", "stiffness_front",
               "stiffness_rear", "friction")
 DESIGNS = ("one-at-a-time", "factorial", "sample")
@@ -300,7 +296,8 @@ class Task:
 def truth_key(plant, car, manoeuvre, rate) -> tuple:
     """Key of a noise-free truth: the ``lpv`` plant is simulated at the sample rate, the
     others at their native rate (decimated afterwards)."""
-    return (plant, car, manoeuvre_id(manoeuvre), float(rate) if plant == "lpv" else None)
+    at_rate = get_plant(plant).native_rate is None
+    return (plant, car, manoeuvre_id(manoeuvre), float(rate) if at_rate else None)
 
 
 def manoeuvre_id(man) -> str:
@@ -348,6 +345,11 @@ class Spec:
     @property
     def plugins(self) -> tuple:
         return tuple(self.doc["plugins"])
+
+    def estimator_of(self, label: str) -> tuple[str, dict]:
+        """``(registry name, options)`` of an estimator column (:func:`option_label`)."""
+        e = self.doc.get("_options", {}).get(label)
+        return (label, {}) if e is None else (e[0], dict(e[1]))
 
     @cached_property
     def pairs(self) -> tuple:
@@ -625,7 +627,7 @@ def _normalise(doc: dict, where: str) -> dict:
                                  integer=True)
     plugins = doc.get("plugins", [])
     if not isinstance(plugins, list) or not all(isinstance(p, str) and p for p in plugins):
-        _err(where, "plugins", f"must be a list of module names, got {plugins!r}")
+        _err(where, "plugins", f"must be a list of module names or .py paths, got {plugins!r}")
     out["plugins"] = list(plugins)
     try:
         avail = registry.available(plugins)
@@ -645,23 +647,34 @@ def _normalise(doc: dict, where: str) -> dict:
     est = doc["estimators"]
     every = est == "all"
     only: dict = {}        # estimator -> the plants it runs on ({name, plants} entries)
+    labels: dict = {}      # label -> [registry name, options] (options entries)
     names = []
     for e in (list(avail) if every else _list(where, "estimators", est)):
         if isinstance(e, dict):
-            _unknown(where, e, ("name", "plants"), "estimators.")
-            if "name" not in e or "plants" not in e:
-                _err(where, "estimators", f"a table entry needs name and plants, got {e!r}")
-            if not isinstance(e["name"], str):
-                _err(where, "estimators", f"a table entry's name is one estimator name (a "
-                                          f"string), got {e['name']!r}: one entry per estimator")
-            only[e["name"]] = _list(where, f"estimators.{e['name']}.plants", e["plants"])
-            e = e["name"]
+            _unknown(where, e, ("name", "plants", "options"), "estimators.")
+            if "name" not in e or not ({"plants", "options"} & set(e)):
+                _err(where, "estimators", f"a table entry needs name and plants or options, "
+                                          f"got {e!r}")
+            if not isinstance(e["name"], str) or e["name"] not in avail:
+                raise SpecError(f"{where}: key 'estimators': unknown estimator "
+                                f"{e['name']!r}; available: {', '.join(avail)}")
+            sweep = _option_sweep(where, avail[e["name"]], e.get("options", {}))
+            for opts in sweep:
+                lab = option_label(e["name"], opts)
+                if "plants" in e:
+                    only[lab] = _list(where, f"estimators.{e['name']}.plants", e["plants"])
+                if opts:
+                    labels[lab] = [e["name"], opts]
+                names.append(lab)
+            continue
         names.append(e)
     refs = doc.get("references", list(DEFAULT_REFERENCES))
     refs = [] if refs == [] else _list(where, "references", refs)
     if all(isinstance(r, str) for r in refs):
         refs = list(dict.fromkeys(refs))        # a reference listed twice runs once
     for n in list(names) + list(refs):
+        if n in labels:
+            continue
         if not isinstance(n, str) or n not in avail:
             raise SpecError(f"{where}: key 'estimators': unknown estimator {n!r}; available: "
                             f"{', '.join(avail)}")
@@ -670,6 +683,7 @@ def _normalise(doc: dict, where: str) -> dict:
     names = names + [r for r in refs if r not in names]
     out["estimators"] = "all" if every else list(est if isinstance(est, list) else [est])
     out["references"] = list(refs)
+    out["_options"] = labels
 
     # truths
     tr = _table(where, doc, "truth")
@@ -681,10 +695,11 @@ def _normalise(doc: dict, where: str) -> dict:
         if not isinstance(t, str) or ":" not in t:
             _err(where, "truth.plants", f"entries are \"plant:car\", got {t!r}")
         pl, car = t.split(":", 1)
-        if pl not in PLANTS:
+        known = plants()
+        if pl not in known:
             _err(where, "truth.plants", f"unknown plant {pl!r} in {t!r} (expected "
-                                        f"{', '.join(PLANTS)})")
-        cars = tuple(COMMONROAD_CARS) + (() if pl == "multibody" else tuple(sorted(files)))
+                                        f"{', '.join(known)})")
+        cars = cars_of(known[pl])
         if car not in cars:
             _err(where, "truth.plants", f"unknown car {car!r} for plant {pl!r} (expected "
                                         f"{', '.join(cars)})")
@@ -776,7 +791,7 @@ def _normalise(doc: dict, where: str) -> dict:
         _err(where, "sensors.bias", "lists a bias case twice")
     rates = _grid(where, "sensors.rates_hz", se.get("rates_hz", [100.0]), 0.0, 1e4, lo_open=True)
     for pl, _car in truths:
-        nat = NATIVE_RATE[pl]
+        nat = get_plant(pl).native_rate
         for r in rates:
             q = nat / r if nat else 1.0
             if nat and (abs(q - round(q)) > 1e-9 or round(q) < 1):
@@ -821,11 +836,11 @@ def _normalise(doc: dict, where: str) -> dict:
             if t not in out["truth"]["plants"]:
                 _err(where, f"estimators.{n}.plants", f"names {t!r}, not one of truth.plants")
     for n in names:
-        s = avail[n]
+        s = avail[labels[n][0]] if n in labels else avail[n]
         for pl, car in truths:
             if n in only and f"{pl}:{car}" not in only[n]:
                 continue
-            missing = [c for c in s.columns if c not in PLANT_COLUMNS[pl]]
+            missing = [c for c in s.columns if c not in get_plant(pl).columns]
             if missing:
                 if every and n not in refs:
                     continue
@@ -835,6 +850,36 @@ def _normalise(doc: dict, where: str) -> dict:
     if not pairs:
         _err(where, "estimators", "leaves nothing to run on these plants")
     out["_pairs"] = [list(p) for p in pairs]
+    return out
+
+
+def option_label(name: str, opts: dict) -> str:
+    """``"name[gain=10.0,mode='a']"``: the estimator column of a run with options (the
+    registry name alone without)."""
+    if not opts:
+        return name
+    return f"{name}[" + ",".join(f"{k}={v!r}" for k, v in sorted(opts.items())) + "]"
+
+
+def _option_sweep(where, spec, options) -> list[dict]:
+    """The option sets of an ``estimators`` entry: ``options = {k = v}`` one set; a list of
+    values for a key whose default is not a list sweeps it (every combination, in order)."""
+    if not isinstance(options, dict):
+        _err(where, f"estimators.{spec.name}.options", f"must be a table, got {options!r}")
+    keys, axes = [], []
+    for k, v in options.items():
+        default = spec.options.get(k)
+        nested = isinstance(v, list) and v and isinstance(v[0], list)
+        sweep = isinstance(v, list) and (nested or not isinstance(default, (list, tuple)))
+        vals = _list(where, f"estimators.{spec.name}.options.{k}", v) if sweep else [v]
+        keys.append(k)
+        axes.append(vals)
+    out = []
+    for combo in itertools.product(*axes):
+        try:
+            out.append(spec.parse_options(dict(zip(keys, combo))))
+        except RegistryError as exc:
+            raise SpecError(f"{where}: key 'estimators.{spec.name}.options': {exc}") from None
     return out
 
 

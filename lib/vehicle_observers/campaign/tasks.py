@@ -49,6 +49,7 @@ def result_schema():
     import pyarrow as pa
 
     fields = [("task", pa.int64()), ("batch", pa.int64()), ("estimator", pa.string()),
+              ("options", pa.string()),
               ("plant", pa.string()), ("car", pa.string()), ("manoeuvre", pa.string()),
               ("variant", pa.int64()),
               *((f"err_{k}", pa.float64()) for k in S.ERROR_KEYS),
@@ -214,7 +215,9 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     veh0 = T.car_vehicle(tk.car)
     lo, hi = v.speed if v.speed is not None else (veh0.uncertainty["vx_min"],
                                                   veh0.uncertainty["vx_max"])
+    name, opts = spec.estimator_of(tk.estimator)
     row = {"task": tk.index, "batch": int(batch_id), "estimator": tk.estimator,
+           "options": json.dumps(opts, sort_keys=True) if opts else "",
            "plant": tk.plant, "car": tk.car, "manoeuvre": S.manoeuvre_id(tk.manoeuvre),
            "variant": tk.variant, **{f"err_{k}": errors[k] for k in S.ERROR_KEYS},
            "box_rel": v.rel, "box_vx_min": float(lo), "box_vx_max": float(hi),
@@ -227,7 +230,7 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     row0 = dict(row)
     try:
         with deadline(d.get("timeout_s")):
-            _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators)
+            _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators, name, opts)
     except Exception as exc:  # noqa: BLE001 - every failure of a task is recorded, not raised
         msg = str(exc).splitlines()[0] if str(exc) else ""
         if isinstance(exc, TaskTimeout):
@@ -240,7 +243,7 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
     return row
 
 
-def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators):
+def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators, name, opts):
     from vehicle_observers.estimation import registry, scoring
 
     d = spec.doc
@@ -263,7 +266,7 @@ def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators):
         and not any(bias.values()) and (tk.noise == 0.0 or sens["std"]["vx"] == 0.0)
         and lo <= float(np.min(tr.vx)) and float(np.max(tr.vx)) <= hi)
     avail = estimators if estimators is not None else registry.available(spec.plugins)
-    est = avail[tk.estimator].estimate(log, veh)
+    est = avail[name].estimate(log, veh, **opts)
     bad = [n for n, c in est.columns.items() if not np.all(np.isfinite(c))]
     if bad:
         k = int(np.argmax(~np.isfinite(est.columns[bad[0]])))
@@ -296,7 +299,7 @@ def run_batch(raw: dict, batch_id: int, start: int, stop: int, truths=None) -> d
     order). ``truths``: ``[Truth, ...]`` computed elsewhere (else simulated here)."""
     spec = spec_of(raw)
     tmap = None if truths is None else {t.key: t for t in truths}
-    avail = estimators_of(spec.plugins, {p[0] for p in spec.pairs})
+    avail = estimators_of(spec.plugins, {spec.estimator_of(p[0])[0] for p in spec.pairs})
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         rows = [run_task(spec, i, batch_id, tmap, avail) for i in range(start, stop)]

@@ -1,8 +1,10 @@
 """Truth plants, noisy logs and the observer's vehicle files of a campaign.
 
-A *truth* is one noise-free drive of a plant (:data:`~vehicle_observers.campaign.spec.PLANTS`)
-along a manoeuvre (:data:`vehicle_observers.data.plant.MANOEUVRES`: reference road-wheel angle
-and speed on a 100 Hz grid):
+A *truth* is one noise-free drive of a plant (registered in
+:mod:`vehicle_observers.campaign.plants`; a plug-in adds its own with
+:func:`~vehicle_observers.campaign.plants.register_plant`) along a manoeuvre
+(:data:`vehicle_observers.data.plant.MANOEUVRES`: reference road-wheel angle and speed on a
+100 Hz grid):
 
 * ``multibody``: :func:`vehicle_observers.data.plant.simulate` with ``noise_scale = 0`` (the
   CommonRoad multi-body model, its steering servo and speed controller; body-fixed
@@ -28,7 +30,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from vehicle_observers.campaign.spec import COMMONROAD_CARS, COMMONROAD_SPEED_RANGE, NATIVE_RATE
+from vehicle_observers.campaign.plants import COMMONROAD_CARS, get_plant, register_plant
+from vehicle_observers.campaign.spec import COMMONROAD_SPEED_RANGE
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.tires import LinearTire, Pacejka
 from vehicle_observers.models.vehicle import KalmanTuning, Vehicle
@@ -39,6 +42,9 @@ MIN_SLIP_DEG = 0.5
 STD_FLOOR_REL = 1e-3
 #: measured speed never below this [m/s] (as the emulated logs)
 VX_FLOOR = 0.05
+#: standard deviation of the longitudinal accelerometer's noise at noise scale 1 [m/s^2]
+#: (that of the lateral one, ``DEFAULT_STD["ay"]``)
+AX_STD = 0.05
 
 
 @dataclass
@@ -155,56 +161,86 @@ def effective_stiffness(vy, r, delta, vx, Ff, Fr, params, c_f0, c_r0) -> dict:
     return out
 
 
+def _multibody(car, m, rate) -> dict:
+    from vehicle_observers.data import plant as mb
+
+    log = mb.simulate(m, vehicle_id=COMMONROAD_CARS[car], seed=0, noise_scale=0.0)
+    return {"t": log.t, "vx": log.vx, "delta": log.delta, "r": log.yaw_rate, "ay": log.ay,
+            "vy": log.vy, "Ff": log.Ff, "Fr": log.Fr}
+
+
+def _yaw_drift(car, m, rate) -> dict:
+    from vehicle_observers.data import scenarios
+
+    p = car_vehicle(car).params
+    fs = 1000.0
+    t = np.arange(int(round((m.t[-1] - m.t[0]) * fs)) + 1) / fs + m.t[0]
+    d = np.interp(t, m.t, m.delta_ref)
+    v = np.interp(t, m.t, m.v_ref)
+    ref = DriveLog(t=t, vx=v, delta=d, yaw_rate=np.zeros_like(t), rho=np.zeros_like(t),
+                   extra={"delta_true_rad": d, "vx_true_mps": v}, source=m.name)
+    log = scenarios.replay(ref, exact_slip=True, params=p, noise_scale=0.0)
+    return {"t": t, "vx": v, "delta": d, "r": log.extra["yaw_rate_true_radps"],
+            "ay": log.extra["ay_true_mps2"], "vy": log.vy, "Ff": log.Ff, "Fr": log.Fr,
+            "extra": {"yL": log.extra["yL_true_m"], "psiL": log.extra["psiL_true_rad"],
+                      "rho": log.rho}}
+
+
+def _lpv(car, m, rate) -> dict:
+    from vehicle_observers.models.uncertain_bicycle import UncertainBicycle, simulate_lpv
+
+    veh = car_vehicle(car)
+    p = veh.params
+    dt = 1.0 / float(rate)
+    t = m.t[0] + dt * np.arange(int(np.floor((m.t[-1] - m.t[0]) / dt + 1e-9)) + 1)
+    d = np.interp(t, m.t, m.delta_ref)
+    v = np.interp(t, m.t, m.v_ref)
+    cf, cr = veh.C_f, veh.C_r
+    ub = UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=cf, c_r0=cr,
+                          rel_unc=0.0, name=veh.name)
+    X = simulate_lpv(ub, [0.0, 0.0], d, v, np.array([cr, cf]), dt, substeps=1,
+                     method="euler")
+    vy, r = X[:, 0], X[:, 1]
+    Ff = cf * (d - (vy + p.a_f * r) / v)
+    Fr = cr * (-(vy - p.a_r * r) / v)
+    return {"t": t, "vx": v, "delta": d, "r": r, "ay": (Ff + Fr) / p.m, "vy": vy,
+            "Ff": Ff, "Fr": Fr}
+
+
+register_plant("multibody", _multibody, native_rate=100.0, cars=tuple(COMMONROAD_CARS),
+               description="CommonRoad multi-body plant (data.plant.simulate), 100 Hz")
+register_plant("yaw-drift", _yaw_drift, native_rate=1000.0,
+               extra_columns=("yL_m", "psiL_rad", "rho_1pm"),
+               description="Yacine 2015 S1 + S2 with relaxation and vision (scenarios.replay)")
+register_plant("lpv", _lpv, native_rate=None,
+               description="Ifqir 2017 LPV bicycle, Euler at the sample rate")
+
+
 def simulate_truth(plant: str, car: str, man, rate: float | None = None) -> Truth:
-    """The noise-free truth of ``plant`` with ``car`` along ``man`` (module docstring);
-    ``rate`` [Hz] is used by ``lpv`` only (the others run at their native rate)."""
+    """The noise-free truth of ``plant`` (a registered one:
+    :func:`~vehicle_observers.campaign.plants.get_plant`) with ``car`` along ``man``
+    (module docstring); ``rate`` [Hz] is used by plants simulated at the sample rate
+    (``native_rate`` None, e.g. ``lpv``). Adds ``extra["ax"]``, the longitudinal reading of
+    a body-fixed accelerometer, ``dv_x/dt - v_y r`` (central differences), when the plant
+    gives none."""
     from vehicle_observers.campaign.spec import truth_key
 
     key = truth_key(plant, car, man, rate)
+    ps = get_plant(plant)
     veh = car_vehicle(car)
     p = veh.params
     m = manoeuvre(man)
     label = f"{plant}:{car} {m.name}"
-    if plant == "multibody":
-        from vehicle_observers.data import plant as mb
-
-        log = mb.simulate(m, vehicle_id=COMMONROAD_CARS[car], seed=0, noise_scale=0.0)
-        tr = Truth(key, log.t, NATIVE_RATE[plant], log.vx, log.delta, log.yaw_rate, log.ay,
-                   log.vy, log.Ff, log.Fr, source=label)
-    elif plant == "yaw-drift":
-        from vehicle_observers.data import scenarios
-
-        fs = NATIVE_RATE[plant]
-        t = np.arange(int(round((m.t[-1] - m.t[0]) * fs)) + 1) / fs + m.t[0]
-        d = np.interp(t, m.t, m.delta_ref)
-        v = np.interp(t, m.t, m.v_ref)
-        ref = DriveLog(t=t, vx=v, delta=d, yaw_rate=np.zeros_like(t), rho=np.zeros_like(t),
-                       extra={"delta_true_rad": d, "vx_true_mps": v}, source=label)
-        log = scenarios.replay(ref, exact_slip=True, params=p, noise_scale=0.0)
-        tr = Truth(key, t, fs, v, d, log.extra["yaw_rate_true_radps"], log.extra["ay_true_mps2"],
-                   log.vy, log.Ff, log.Fr,
-                   extra={"yL": log.extra["yL_true_m"], "psiL": log.extra["psiL_true_rad"],
-                          "rho": log.rho}, source=label)
-    elif plant == "lpv":
-        from vehicle_observers.models.uncertain_bicycle import UncertainBicycle, simulate_lpv
-
-        dt = 1.0 / float(rate)
-        t = m.t[0] + dt * np.arange(int(np.floor((m.t[-1] - m.t[0]) / dt + 1e-9)) + 1)
-        d = np.interp(t, m.t, m.delta_ref)
-        v = np.interp(t, m.t, m.v_ref)
-        cf, cr = veh.C_f, veh.C_r
-        ub = UncertainBicycle(m=p.m, I_z=p.I_z, l_f=p.a_f, l_r=p.a_r, c_f0=cf, c_r0=cr,
-                              rel_unc=0.0, name=veh.name)
-        X = simulate_lpv(ub, [0.0, 0.0], d, v, np.array([cr, cf]), dt, substeps=1,
-                         method="euler")
-        vy, r = X[:, 0], X[:, 1]
-        Ff = cf * (d - (vy + p.a_f * r) / v)
-        Fr = cr * (-(vy - p.a_r * r) / v)
-        tr = Truth(key, t, float(rate), v, d, r, (Ff + Fr) / p.m, vy, Ff, Fr, source=label)
-    else:   # pragma: no cover - the spec refuses other plants
-        raise ValueError(f"unknown plant {plant!r}")
+    ch = ps.simulate(car, m, rate)
+    fs = ps.native_rate if ps.native_rate is not None else float(rate)
+    arr = {k: np.asarray(ch[k], float) for k in ("t", "vx", "delta", "r", "ay", "vy", "Ff", "Fr")}
+    extra = {k: np.asarray(v, float) for k, v in (ch.get("extra") or {}).items()}
+    tr = Truth(key, arr["t"], fs, arr["vx"], arr["delta"], arr["r"], arr["ay"], arr["vy"],
+               arr["Ff"], arr["Fr"], extra=extra, source=label)
     if not all(np.all(np.isfinite(a)) for a in (tr.vx, tr.delta, tr.r, tr.vy)):
         raise FloatingPointError(f"{label}: the truth is not finite")
+    if "ax" not in tr.extra and len(tr.t) > 1:
+        tr.extra["ax"] = np.gradient(tr.vx, tr.t) - tr.vy * tr.r
     tr.stiffness = effective_stiffness(tr.vy, tr.r, tr.delta, tr.vx, tr.Ff, tr.Fr, p,
                                        veh.C_f, veh.C_r)
     return tr
@@ -220,7 +256,9 @@ def make_log(truth: Truth, rate: float, std: dict, scale: float, bias: dict,
     (``yaw_rate, delta, vx, ay, yL, psiL``), one value per sample of the decimated log, for
     every channel whether the log has it or not (so a log's draws do not depend on the
     plant). Truth columns: ``vy``, ``Ff``, ``Fr``; ``extra`` holds the noise-free
-    ``yaw_rate_true_radps``, ``vx_true_mps``, ``delta_true_rad``."""
+    ``yaw_rate_true_radps``, ``vx_true_mps``, ``delta_true_rad`` and ``ax_mps2`` (the
+    truth's longitudinal acceleration plus noise of :data:`AX_STD` x ``scale``, drawn after
+    every other channel, so that the other channels' draws are those of a log without it)."""
     q = int(round(truth.rate / rate))
     sl = slice(None, None, q)
     t = truth.t[sl]
@@ -235,6 +273,10 @@ def make_log(truth: Truth, rate: float, std: dict, scale: float, bias: dict,
     ex = truth.extra
     vx = truth.vx[sl]
     has_vision = "yL" in ex
+    extra = {"yaw_rate_true_radps": truth.r[sl].copy(), "vx_true_mps": vx.copy(),
+             "delta_true_rad": truth.delta[sl].copy()}
+    if "ax" in ex:
+        extra["ax_mps2"] = ex["ax"][sl] + scale * AX_STD * rng.standard_normal(n)
     return DriveLog(
         t=t.copy(), vx=np.maximum(vx + noise["vx"], VX_FLOOR), delta=truth.delta[sl] + noise["delta"],
         yaw_rate=truth.r[sl] + noise["yaw_rate"], ay=truth.ay[sl] + noise["ay"],
@@ -242,6 +284,4 @@ def make_log(truth: Truth, rate: float, std: dict, scale: float, bias: dict,
         yL=ex["yL"][sl] + noise["yL"] if has_vision else None,
         psiL=ex["psiL"][sl] + noise["psiL"] if has_vision else None,
         rho=ex["rho"][sl].copy() if "rho" in ex else None,
-        extra={"yaw_rate_true_radps": truth.r[sl].copy(), "vx_true_mps": vx.copy(),
-               "delta_true_rad": truth.delta[sl].copy()},
-        source=f"{truth.source} at {rate:g} Hz")
+        extra=extra, source=f"{truth.source} at {rate:g} Hz")

@@ -1,9 +1,9 @@
 """Command line: estimate lateral states on your own log.
 
-    python -m vehicle_observers [--plugin MODULE ...] observers
+    python -m vehicle_observers [--plugin MODULE|FILE.py ...] [--debug] observers
     python -m vehicle_observers estimate LOG.csv --vehicle VEHICLE.toml --observer NAME \\
-        --out EST.csv [--tune-window 120] [--max-gap 0.5] [--accept-out-of-range]
-        [--accept-mismatch] [--timeout SECONDS] [--progress/--no-progress]
+        --out EST.csv [--set KEY=VALUE ...] [--tune-window 120] [--max-gap 0.5]
+        [--accept-out-of-range] [--accept-mismatch] [--timeout SECONDS] [--progress/--no-progress]
     python -m vehicle_observers tune LOG.csv --vehicle VEHICLE.toml [--tune-window 120]
     python -m vehicle_observers identify LOG.csv --out VEHICLE.toml --mass M --inertia IZ \\
         --a-f LF --a-r LR [--channels yaw_rate,ay] [--nonlinear auto|yes|no] [--window 120]
@@ -13,7 +13,9 @@ append it to the vehicle file to skip the tuning in later runs (a log without ``
 is refused: the a_y noise and bias drift cannot be identified from it).
 
 ``LOG.csv`` follows the schema of :mod:`vehicle_observers.data.logs` (``t_s, vx_mps,
-delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...);
+delta_roadwheel_rad, yaw_rate_radps`` and optionally ``ay_mps2``, reference ``vy_mps``, ...,
+and any ``<quantity>_<unit>`` column an estimator declares, e.g. ``ax_mps2``: read and
+checked against its unit's range only when the chosen estimator reads it);
 it must be a regular file (a FIFO or device is refused: it could block forever).
 ``--vehicle`` is a TOML file (:mod:`vehicle_observers.models.vehicle`) or a built-in name
 (``yacine2015``, ``revs250lm``). The output CSV has ``t_s`` and one column per estimate with
@@ -38,9 +40,18 @@ really is out of range), the options against the log (``--max-gap`` at least
 ``--accept-mismatch``, one warning line when doubtful). An output with NaN/inf, or ``|v_y|``
 above 30 m/s, is an error, not a result. When the log has reference columns the benchmark
 metrics are printed.
+``--set KEY=VALUE`` (repeatable) passes an option of the estimator, typed from its declared
+default (``observers`` lists them); an unknown key or a malformed value is one line, exit 2.
+Beside the output, ``EST.csv.provenance.json`` records what made it
+(:func:`vehicle_observers.campaign.provenance.code_provenance`: package version, the hash of
+the estimator's module source and of each plug-in's, the options).
+
 Errors: one line on stderr, exit status 2 (bad input, including bad options), 3
-(unexpected internal error), 128 + signal number (SIGHUP 129, SIGINT 130, SIGTERM 143);
-never a traceback. Warnings: at most one line on stderr, after a successful run.
+(a plug-in's code raised: the message names the plug-in and its file:line; or an unexpected
+internal error), 128 + signal number (SIGHUP 129, SIGINT 130, SIGTERM 143); no traceback
+unless ``--debug``. Warnings: at most one line on stderr, after a successful run; with
+``--debug`` every warning is shown (numerical warnings of numpy included) and an error
+prints its traceback.
 
 Estimators come from :mod:`vehicle_observers.estimation.registry`: the built-in ones, the
 plug-ins installed under the entry-point group ``vehicle_observers.estimators``, the modules
@@ -115,12 +126,21 @@ def _parser():
                 description="Vehicle lateral-state observers on drive logs.")
     p.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                    help="import MODULE (dotted name, or a .py file) before listing or running: "
-                        "its estimators are registered (repeatable)")
+                        "its estimators are registered (repeatable; campaigns load it on "
+                        "every worker)")
+    p.add_argument("--debug", action="store_true",
+                   help="for observer writers: show every warning (numpy's included) and the "
+                        "traceback of an error")
     sub = p.add_subparsers(dest="cmd", required=True)
-    sub.add_parser("observers", help="list the observers and what each needs")
+    _add_plugin_options(sub.add_parser("observers", help="list the observers and what each "
+                                                         "needs"))
     e = sub.add_parser("estimate", help="run one observer on a log and write the estimates")
     _add_common(e)
+    _add_plugin_options(e)
     e.add_argument("--observer", required=True, help="observer name (see 'observers')")
+    e.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="options",
+                   help="an option of the observer, typed from its declared default "
+                        "(repeatable; 'observers' lists them)")
     e.add_argument("--out", required=True,
                    help="output CSV path (.csv, or .csv.gz written gzip-compressed)")
     e.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
@@ -138,23 +158,19 @@ def _parser():
     return p
 
 
-def _plugins(args) -> list[str]:
-    """``--plugin`` values as module names: a ``.py`` path puts its folder on ``sys.path``."""
-    from vehicle_observers.data.logs import special_file
+def _add_plugin_options(p):
+    """``--plugin`` and ``--debug`` after a command too (``estimate ... --plugin f.py``)."""
+    p.add_argument("--plugin", action="append", default=[], dest="sub_plugin",
+                   metavar="MODULE", help="as before the command: import MODULE or FILE.py")
+    p.add_argument("--debug", action="store_true", dest="sub_debug",
+                   help="as before the command: warnings and tracebacks shown")
 
-    mods = []
-    for m in getattr(args, "plugin", None) or []:
-        if m.endswith(".py"):
-            kind = special_file(m)
-            if kind is not None:
-                raise CLIError(f"--plugin {m}: is {kind}, expected a .py file")
-            f = Path(m).resolve()
-            if not f.is_file():
-                raise CLIError(f"--plugin {m}: no such file")
-            sys.path.insert(0, str(f.parent))
-            m = f.stem
-        mods.append(m)
-    return mods
+
+def _plugins(args) -> list[str]:
+    """``--plugin`` values, before and after the command (module names or ``.py`` paths:
+    :func:`registry.load_plugin`)."""
+    return list(getattr(args, "plugin", None) or []) + list(getattr(args, "sub_plugin", None)
+                                                             or [])
 
 
 def _available(args):
@@ -173,13 +189,19 @@ def cmd_observers(out=None, args=None):
 
     print(f"every observer reads: {', '.join(BASE_COLUMNS)}", file=out)
     for name, s in _available(args).items():
-        need = ", ".join(s.columns) or "-"
+        need = ", ".join(s.columns) or ("-" if s.columns_declared else
+                                        "declared by the observer once built")
         opt = ", ".join(s.optional_columns) or "-"
         veh = ", ".join(k for k in s.vehicle_keys)
         flags = ("causal" if s.causal else "OFFLINE") + (", interval" if s.interval else "")
         print(f"{name:18s} {s.description}", file=out)
         print(f"{'':18s}   needs columns: {need}; uses if present: {opt}; vehicle keys: {veh}; "
               f"{flags}", file=out)
+        if s.options:
+            print(f"{'':18s}   options (--set): "
+                  + ", ".join(f"{k}={v!r}" for k, v in s.options.items()), file=out)
+        if s.plugin:
+            print(f"{'':18s}   plug-in: {s.origin} ({s.source_file or 'no file'})", file=out)
     return 0
 
 
@@ -273,7 +295,7 @@ def _inputs(args) -> dict:
     out = {"the input log": args.log}
     if getattr(args, "vehicle", None):
         out["the vehicle file"] = _vehicle_path(args.vehicle)
-    for m in getattr(args, "plugin", None) or []:
+    for m in _plugins(args):
         if m.endswith(".py"):
             out[f"the plug-in {m}"] = m
     return out
@@ -349,6 +371,63 @@ def _warn(line):
         print(line, file=sys.stderr)
 
 
+def _options(spec, args) -> dict:
+    """``--set KEY=VALUE`` as typed options of ``spec`` (one line on an unknown key)."""
+    from vehicle_observers.core.errors import RegistryError
+
+    try:
+        return spec.parse_options(getattr(args, "options", None) or [])
+    except RegistryError as exc:
+        raise CLIError(f"--set: {exc}") from None
+
+
+def _undeclared_columns(spec, path) -> tuple:
+    """Every ``<quantity>_<unit>`` column of the log's header when ``spec`` knows its
+    columns only once built (:attr:`EstimatorSpec.columns_declared`); else none."""
+    from vehicle_observers.data.logs import is_log_column, log_header
+
+    if spec.columns_declared:
+        return ()
+    try:
+        return tuple(c for c in log_header(path) if is_log_column(c))
+    except Exception:   # noqa: BLE001 - the loader reports an unreadable log itself
+        return ()
+
+
+class _Sidecar:
+    """``<out>.provenance.json`` beside an estimate: what made it
+    (:func:`vehicle_observers.campaign.provenance.code_provenance`). Built before the
+    estimate is committed (an older one is removed then: it would describe other results)
+    and written atomically just after it."""
+
+    def __init__(self, out_path: Path, spec, options, args):
+        import json
+
+        from vehicle_observers.campaign.provenance import code_provenance
+
+        prov = code_provenance({spec.name: spec}, {spec.name: options}, _plugins(args))
+        prov["command"] = {"log": str(args.log), "vehicle": str(args.vehicle),
+                           "observer": spec.name, "max_gap": args.max_gap,
+                           "tune_window": args.tune_window}
+        self.path = self.path_of(out_path)
+        self.text = json.dumps(prov, indent=1, sort_keys=True, default=repr)
+        try:
+            self.path.unlink(missing_ok=True)
+        except OSError:
+            pass
+
+    @staticmethod
+    def path_of(out_path) -> Path:
+        out_path = Path(out_path)
+        return out_path.with_name(out_path.name + ".provenance.json")
+
+    def commit(self):
+        from vehicle_observers.data.logs import AtomicOutput
+
+        with AtomicOutput(self.path, compress=False) as out:
+            out.commit_text(self.text + "\n")
+
+
 def cmd_estimate(args, out=None):
     out = out or sys.stdout
     from vehicle_observers.data.logs import OPTIONAL, REQUIRED
@@ -360,6 +439,7 @@ def cmd_estimate(args, out=None):
         raise CLIError(f"unknown observer {args.observer!r}; available: {', '.join(obs)}")
     spec = obs[args.observer]
     _check_args(args)
+    options = _options(spec, args)
     out_path = _out_path(args)
     show = sys.stderr.isatty() if args.progress is None else args.progress
     bar = _Bar(show, args.observer)
@@ -368,18 +448,22 @@ def cmd_estimate(args, out=None):
         with _Sink(out_path) as sink:
             # every schema column is read and checked (an absurd value in any channel is
             # refused), plus the emulated logs' yaw-rate truth used for scoring
-            cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
+            cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps", *spec.columns,
+                    *spec.optional_columns, *_undeclared_columns(spec, args.log))
             log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
             _check_options_against_log(args, log)
             spec.check(log, vehicle)
             warning = _check_vehicle(args, log, vehicle, spec)
             bar.stage(10, "design / tuning")
             est = spec.estimate(log, vehicle, window_s=args.tune_window,
-                                progress=bar.observer, max_gap=args.max_gap, cache=True)
+                                progress=bar.observer, max_gap=args.max_gap, cache=True,
+                                **options)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
             bar.stage(85, "writing")
+            side = _Sidecar(out_path, spec, options, args)
             sink.commit(sink.out.commit, table, bar.part(85, 100, "writing, rows"))
+            sink.commit(side.commit)
         bar.stage(100, "done")
     finally:
         bar.bar.close()
@@ -390,17 +474,23 @@ def cmd_estimate(args, out=None):
 
 def _report(args, spec, est, log, vehicle, out_path, m, out):
     n = len(est.t)
-    low = int(np.sum(est.flags["low_speed"]))
+    loop = ("the plug-in's run loop, as it timed it" if spec.plugin
+            else "compiled kernels, compilation excluded")
     print(f"{spec.name} on {Path(args.log).name} ({n} samples, {log.duration:.1f} s) with "
-          f"{vehicle.name}: {est.us_per_step:.3g} us/step (compiled kernels), real-time factor "
+          f"{vehicle.name}: {est.us_per_step:.3g} us/step ({loop}), real-time factor "
           f"{log.duration / max(est.seconds, 1e-12):.3g}x; design/tuning "
           f"{est.design_seconds:.2f} s", file=out)
-    print(f"low-speed model on {low} row(s) (low_speed = 1); "
-          f"{int(np.sum(est.flags['reinit']))} re-initialisation(s) after gaps > "
-          f"{args.max_gap:g} s (reinit = 1)", file=out)
+    if "low_speed" in est.flags and "reinit" in est.flags:
+        print(f"low-speed model on {int(np.sum(est.flags['low_speed']))} row(s) (low_speed = "
+              f"1); {int(np.sum(est.flags['reinit']))} re-initialisation(s) after gaps > "
+              f"{args.max_gap:g} s (reinit = 1)", file=out)
+    else:
+        print("no row flags (low_speed, reinit): this estimator runs on the whole log as it "
+              "is", file=out)
     if not est.causal:
         print("note: this estimator is OFFLINE (uses future samples)", file=out)
-    print(f"wrote {out_path} (columns: {', '.join(est.table())})", file=out)
+    print(f"wrote {out_path} (columns: {', '.join(est.table())}) and its provenance "
+          f"{_Sidecar.path_of(out_path).name}", file=out)
     if any(k.startswith("rmse_vy") or k.startswith("enclosure") or k.startswith("rmse_F")
            for k in m):
         print("metrics against the log's reference columns:", file=out)
@@ -676,12 +766,24 @@ def main(argv=None) -> int:
             sig = getattr(signal, name, None)
             if sig is not None:
                 prev[sig] = signal.signal(sig, _on_signal)
+    debug = bool(getattr(args, "debug", False) or getattr(args, "sub_debug", False))
     try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")   # one-line errors: no warning lines from libraries
-            return _run(args)
+        if debug:
+            with warnings.catch_warnings():
+                warnings.simplefilter("default")
+                return _run(args)
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")   # recorded: only a plug-in's are reported
+            try:
+                return _run(args)
+            finally:
+                _plugin_warnings(seen)
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        if debug and exc.__cause__ is not None:
+            import traceback
+
+            traceback.print_exception(exc.__cause__, file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         from vehicle_observers.data.logs import discard_active_partials
@@ -697,13 +799,37 @@ def main(argv=None) -> int:
         except (OSError, ValueError):
             pass
         return EXIT_PIPE
-    except Exception as exc:  # noqa: BLE001 - last resort: one line, never a traceback
+    except Exception as exc:  # noqa: BLE001 - last resort: one line (traceback with --debug)
+        from vehicle_observers.core.errors import PluginError
+
+        if debug:
+            import traceback
+
+            traceback.print_exception(exc, file=sys.stderr)
         msg = str(exc).splitlines()[0] if str(exc) else ""
-        print(f"error: internal error {type(exc).__name__}: {msg}", file=sys.stderr)
+        hint = "" if debug else " (--debug shows the traceback)"
+        if isinstance(exc, PluginError):
+            print(f"error: {msg}; no output written{hint}", file=sys.stderr)
+        else:
+            print(f"error: internal error {type(exc).__name__}: {msg}{hint}", file=sys.stderr)
         return EXIT_INTERNAL
     finally:
         for sig, handler in prev.items():
             signal.signal(sig, handler)
+
+
+def _plugin_warnings(seen):
+    """One line on stderr for the warnings raised in plug-in code (their count, the first
+    with its file:line); the libraries' warnings stay quiet without ``--debug``."""
+    from vehicle_observers.estimation.registry import plugin_files
+
+    files = plugin_files()
+    mine = [w for w in seen if str(Path(w.filename).resolve()) in files]
+    if mine:
+        w = mine[0]
+        print(f"warning: plug-in code raised {len(mine)} warning(s), first at {w.filename}:"
+              f"{w.lineno}: {w.category.__name__}: {str(w.message).splitlines()[0]} "
+              "(--debug shows all)", file=sys.stderr)
 
 
 def _main_thread() -> bool:
@@ -741,6 +867,11 @@ def _campaign_parser(sub):
     c.add_argument("--workers", type=int, help="worker processes of the embedded cluster")
     c.add_argument("--engine", choices=("dask", "serial"), default="dask",
                    help="serial: every batch in this process (same results)")
+    c.add_argument("--recompute", action="store_true",
+                   help="when the code changed since the folder's results were computed "
+                        "(package version, an estimator's or plug-in's source, options): "
+                        "recompute the batches it affects (otherwise refused)")
+    _add_plugin_options(c)
     g = c.add_mutually_exclusive_group()
     g.add_argument("--progress", dest="progress", action="store_true", default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
@@ -754,9 +885,6 @@ def cmd_campaign(args, out=None):
     out = out or sys.stdout
     from vehicle_observers import campaign
 
-    if args.plugin:
-        raise CLIError("campaign: name plug-in modules in the spec's 'plugins' key (they are "
-                       "imported on every worker), not with --plugin")
     if args.spec == "report":
         if not args.dir:
             raise CLIError("campaign report: give the campaign folder (campaign report DIR)")
@@ -783,7 +911,8 @@ def cmd_campaign(args, out=None):
 
     try:
         res = campaign.run(args.spec, args.out, scheduler=args.scheduler, engine=args.engine,
-                           workers=args.workers, progress=args.progress)
+                           workers=args.workers, progress=args.progress, plugins=_plugins(args),
+                           recompute=args.recompute)
     except CampaignStopped as exc:
         if exc.signum is None:
             raise CLIError(str(exc)) from None

@@ -49,3 +49,23 @@ class ObserverArgumentError(ValueError):
 class RegistryError(ValueError):
     """An estimator registration or look-up is wrong (unknown name, duplicate name, a
     plug-in that does not follow the estimator protocol): the message names it."""
+
+
+class PluginError(RuntimeError):
+    """Code of a plug-in (an estimator or truth plant registered from outside the library)
+    raised, or a plug-in module failed to import: a problem of that code, never of the
+    user's input. The message names the plug-in and the file:line where it raised;
+    ``__cause__`` is the original exception (its traceback: the command line's ``--debug``).
+
+    Attributes
+    ----------
+    plugin : str
+        The estimator (or module) name.
+    where : str
+        ``"path/to/file.py:LINE (in FUNCTION)"`` of the plug-in's innermost frame, or ``""``.
+    """
+
+    def __init__(self, message, plugin="", where=""):
+        super().__init__(message)
+        self.plugin = plugin
+        self.where = where

@@ -235,7 +235,9 @@ class ObserverBase:
     """Shared plumbing for observers of this library: argument checks and the readable loop.
 
     Subclasses set ``design``, ``state_names``, ``input_names``, ``output_names`` and define
-    ``initial_state``, ``step``, ``estimate`` (``bounds`` defaults to ``None``) and ``run``.
+    ``initial_state``, ``step``, ``estimate`` (``bounds`` defaults to ``None``); ``run``
+    defaults to the readable step looped in Python (:func:`run_readable`): a new observer
+    works before it has a compiled loop, which then overrides ``run``.
     """
 
     design: Any = None
@@ -245,6 +247,10 @@ class ObserverBase:
 
     def bounds(self, z):
         return None
+
+    def run(self, t, u, y, x0=None) -> Trajectory:
+        """The readable loop (:func:`run_readable`); override with a compiled one."""
+        return run_readable(self, t, u, y, x0)
 
     def check_data(self, t, u, y, x0=None):
         """Validate and convert ``(t, u, y, x0)``; raise :class:`ObserverArgumentError`

@@ -18,7 +18,10 @@ column                    required  meaning
 ``rho_1pm``               no        road curvature [1/m] (truth, emulated)
 ========================  ========  =====================================================
 
-Any other numeric column is kept in :attr:`DriveLog.extra`. Bad input raises
+Any other numeric column is kept in :attr:`DriveLog.extra`; a column named
+``<quantity>_<unit>`` with a unit of :data:`UNIT_RANGES` (``ax_mps2``, ``beta_rad``, ...) may
+be read by any estimator that declares it, and :func:`check_plausible` checks it against its
+unit's range like the schema's columns. Bad input raises
 :class:`~vehicle_observers.core.errors.LogFormatError` naming the file, column and row (rows are
 counted as data rows from 0; the file line is that + 2) and what was expected; the file is
 never modified.
@@ -761,6 +764,38 @@ PLAUSIBLE = {
     "Fr_N": (-1e6, 1e6, "axle force in a unit other than N?"),
     "rho_1pm": (-1.0, 1.0, "curvature in a unit other than 1/m?"),
 }
+#: plausible range per unit suffix (``<quantity>_<unit>``), for a log column outside the
+#: schema table above (e.g. ``ax_mps2``, ``beta_rad``, ``deltaFL_rad`` of the Revs log) that
+#: an estimator reads: ``unit -> (lo, hi, likely mistake)``. These units are also the ones a
+#: plug-in observer may name (:func:`is_log_column`); ``s`` (time-like) has no range.
+UNIT_RANGES = {
+    "mps": (-90.0, 90.0, "a speed in km/h instead of m/s?"),
+    "mps2": (-25.0, 25.0, "an acceleration in ft/s^2, mm/s^2 or g instead of m/s^2?"),
+    "rad": (-6.3, 6.3, "an angle in degrees instead of rad?"),
+    "radps": (-5.0, 5.0, "an angular rate in deg/s instead of rad/s?"),
+    "radps2": (-50.0, 50.0, "an angular acceleration in deg/s^2 instead of rad/s^2?"),
+    "m": (-1e5, 1e5, "a length in mm instead of m?"),
+    "N": (-1e6, 1e6, "a force in a unit other than N?"),
+    "Nm": (-1e6, 1e6, "a torque in a unit other than N m?"),
+    "1pm": (-1.0, 1.0, "a curvature in a unit other than 1/m?"),
+    "s": (-np.inf, np.inf, ""),
+}
+_COLUMN_RE = re.compile(r"[A-Za-z][A-Za-z0-9]*(?:_[A-Za-z0-9]+)*_([A-Za-z0-9]+)")
+
+
+def is_log_column(name: str) -> bool:
+    """``name`` follows the units-in-name convention ``<quantity>_<unit>`` with a unit of
+    :data:`UNIT_RANGES` (``ax_mps2``, ``deltaFL_rad``; not ``ax`` nor ``ax_g``)."""
+    m = _COLUMN_RE.fullmatch(str(name))
+    return bool(m) and m.group(1) in UNIT_RANGES
+
+
+def log_header(path) -> list[str]:
+    """The column names of a log file's header line (the file is not read further)."""
+    path = Path(path)
+    return _read_header(path, path.name)
+
+
 #: sampling interval range [s]: 10 kHz .. 2 Hz
 DT_RANGE = (1e-4, 0.5)
 #: any |value| above this in any column is refused even with ``accept=True``
@@ -1092,7 +1127,13 @@ def check_plausible(log: DriveLog, wheelbase: float | None = None, accept: bool 
     msg = scale_change(log)
     if msg:
         raise LogFormatError(msg + tail)
-    for c, (lo, hi, why) in PLAUSIBLE.items():
+    ranges = dict(PLAUSIBLE)
+    for c in cols:              # any other column read: the range of its unit
+        if c not in ranges and is_log_column(c) and c != "t_s":
+            unit = _COLUMN_RE.fullmatch(c).group(1)
+            if np.isfinite(UNIT_RANGES[unit][1]):
+                ranges[c] = UNIT_RANGES[unit]
+    for c, (lo, hi, why) in ranges.items():
         v = cols.get(c)
         if v is None:
             continue

@@ -7,16 +7,19 @@ from vehicle_observers.estimation import (
     peer_runs,  # noqa: F401  (registers the peers, baselines, adaptive-ekf, fusion-interval)
     references,  # noqa: F401  (registers open-loop-linear, linear-kf)
 )
+from vehicle_observers.estimation.checks import ObserverCheck, check_observer
 from vehicle_observers.estimation.registry import (
     EstimatorSpec,
     available,
     estimator,
     get,
+    load_plugin,
     load_plugins,
     register,
     register_observer,
 )
 from vehicle_observers.estimation.scoring import score
 
-__all__ = ["EstimatorSpec", "Observer", "ObserverBase", "Trajectory", "available", "estimator",
-           "get", "load_plugins", "register", "register_observer", "run_readable", "score"]
+__all__ = ["EstimatorSpec", "Observer", "ObserverBase", "ObserverCheck", "Trajectory",
+           "available", "check_observer", "estimator", "get", "load_plugin", "load_plugins",
+           "register", "register_observer", "run_readable", "score"]

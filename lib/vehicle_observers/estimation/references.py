@@ -336,11 +336,11 @@ def _lkf(t, u, y, z0, c, theta):
     return X
 
 
-def _build_open_loop(vehicle, dt):
+def _build_open_loop(vehicle, dt) -> OpenLoopBicycle:
     return OpenLoopBicycle(vehicle)
 
 
-def _build_lkf(vehicle, dt):
+def _build_lkf(vehicle, dt) -> LinearKalman:
     return LinearKalman(vehicle)
 
 

@@ -98,10 +98,12 @@ def stretches(t, ok, max_gap: float = MAX_GAP_S, min_run: int = MIN_RUN):
 
 
 def view(log: DriveLog, a: int, b: int) -> DriveLog:
-    """Rows ``a..b-1`` of the schema channels as views (no copy); ``extra`` dropped."""
+    """Rows ``a..b-1`` of every channel, ``extra`` columns included, as views (no copy):
+    an observer may read any column of the log (e.g. ``ax_mps2``)."""
     kw = {at: (None if getattr(log, at) is None else getattr(log, at)[a:b])
           for at in _ATTR.values()}
-    return DriveLog(**kw, source=f"{log.source}[rows {a}..{b - 1}]")
+    return DriveLog(**kw, extra={c: v[a:b] for c, v in log.extra.items()},
+                    source=f"{log.source}[rows {a}..{b - 1}]")
 
 
 def kinematic(log: DriveLog, vehicle, rows) -> dict:

@@ -1,7 +1,9 @@
 """``python -m vehicle_observers_papers.benchmark_study`` (``make bench``): the accuracy
 benchmark, the speed benchmarks, the independent-plant study and the leaderboard
 (:mod:`vehicle_observers_papers.leanza_2021.leaderboard`); writes ``build/benchmark/`` and
-prints the tables."""
+prints the tables. ``--plugin MODULE|FILE.py`` (repeatable) loads plug-ins like the command
+line: their estimators join the accuracy study (beside :data:`runs.STUDY_ESTIMATORS`) and
+the leaderboard, on every dataset that has the columns they read."""
 
 from __future__ import annotations
 
@@ -26,9 +28,16 @@ def main(argv=None) -> int:
                     "results change on every run)")
     ap.add_argument("--no-topics", action="store_true", help="skip the speed benchmarks")
     ap.add_argument("--no-leaderboard", action="store_true", help="skip the leaderboard")
+    ap.add_argument("--plugin", action="append", default=[], metavar="MODULE|FILE.py",
+                    help="load a plug-in: its estimators join the study and the leaderboard")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    from vehicle_observers.estimation import registry
+
+    before = set(registry.available())
+    added = [n for n in registry.available(args.plugin) if n not in before]
     res = runs.run(seed=args.seed, quick=args.quick,
+                   observers=(*runs.STUDY_ESTIMATORS, *added) if added else None,
                    progress=lambda s: print(f"  running {s}", file=sys.stderr, flush=True))
     topics = None if args.no_topics else speed.topic_benchmarks(args.quick)
     board = None

@@ -25,7 +25,7 @@ COLUMNS = ["dataset", "observer", "causal", "samples", "rmse_vy", "max_vy", "rms
            "realtime_factor", "design_s", "ratio_vy_vs_ekf", "ratio_vy_vs_rts",
            "speedup_vs_filterpy_ekf"]
 #: pure-Python estimators, run on a window of ``filterpy_steps`` samples only
-SLOW = ("ekf-filterpy", "ukf")
+SLOW = ("ekf-filterpy", "ukf-filterpy")
 #: estimators that use the Kalman noise tuning
 KALMAN = ("ekf", "ekf-filterpy", "ukf", "rts")
 

@@ -44,7 +44,7 @@ from vehicle_observers.models.vehicle import Vehicle, load_vehicle
 #: baselines: not candidates for "best causal"
 BASELINES = ("open-loop-linear", "vy-zero", "linear-kf", "linear-kf-ml")
 #: pure-Python reference filters skipped (minutes on the Revs log; the numba EKF is the same)
-SLOW = ("ekf-filterpy", "ukf")
+SLOW = ("ekf-filterpy", "ukf-filterpy")
 PLANT_MANOEUVRES = ("sine_with_dwell", "slalom", "satory", "ramp_steer")
 LIMITS = {"open_loop": 0.8, "linear_kf": 0.85, "revs_vy": 0.20, "revs_beta_vs_fg": 0.7,
           "coverage": (0.90, 0.98), "us_per_step": 3.0}
