@@ -375,14 +375,41 @@ def cmd_estimate(args, out=None):
                                 progress=bar.observer, max_gap=args.max_gap, cache=True)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
+            est.info["verdict_info"] = _verdict(est, log, vehicle)
             bar.stage(85, "writing")
             sink.commit(sink.out.commit, table, bar.part(85, 100, "writing, rows"))
+            _write_verdict(out_path, est.info["verdict_info"])
         bar.stage(100, "done")
     finally:
         bar.bar.close()
     _warn(warning)
     _report(args, spec, est, log, vehicle, out_path, score(est, log), out)
     return 0
+
+
+def _verdict(est, log, vehicle) -> dict:
+    """The identifiability verdict of the estimate with the uncertainty method
+    (:func:`vehicle_observers.estimation.calibration.verdict_of`), JSON-ready."""
+    from vehicle_observers.estimation.calibration import verdict_of
+
+    v = verdict_of(est, log, vehicle)
+    out = {k: (float(x) if isinstance(x, (float, np.floating)) else x) for k, x in v.items()}
+    out["estimator"] = est.estimator
+    out["uncertainty"] = est.info.get("uncertainty", "the estimator's own")
+    return out
+
+
+def _verdict_path(out_path: Path) -> Path:
+    """The verdict's metadata file next to the estimates: ``<out>.verdict.json``."""
+    return out_path.with_name(out_path.name + ".verdict.json")
+
+
+def _write_verdict(out_path: Path, v: dict):
+    """Write the verdict metadata (JSON) next to the output, atomically."""
+    import json
+
+    with _Sink(_verdict_path(out_path)) as sink:
+        sink.commit(sink.out.commit_text, json.dumps(v, indent=1) + "\n")
 
 
 def _report(args, spec, est, log, vehicle, out_path, m, out):
@@ -403,6 +430,10 @@ def _report(args, spec, est, log, vehicle, out_path, m, out):
         print("metrics against the log's reference columns:", file=out)
         for line in _fmt_metrics(m):
             print(line, file=out)
+    v = est.info.get("verdict_info")
+    if v:
+        print(f"identifiability verdict: {v['verdict_line']}", file=out)
+        print(f"wrote {_verdict_path(out_path)} (verdict, reason, uncertainty method)", file=out)
 
 
 #: what the ML tuning reads from the a_y channel (named when a log has none)

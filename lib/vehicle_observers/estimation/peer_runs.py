@@ -2,7 +2,8 @@
 
 * ``mbds-kf`` - the linear single-track KF published with the Revs log
   (:func:`vehicle_observers.baselines.peers.mbds_kf`), on the vehicle file's zero-slip
-  stiffnesses (on ``revs250lm`` exactly their constants), their noise rule;
+  stiffnesses (on ``revs250lm`` exactly their constants), their noise rule; its ``v_y`` std
+  calibrated (:func:`vehicle_observers.estimation.calibration.calibrate`);
 * ``mbds-fg`` (offline batch) and ``mbds-fg-lag5`` (fixed lag of 5 samples: 4-sample
   look-ahead, not causal) - their factor graph;
 * ``linear-kf-ml`` - a plain linear Kalman filter on the vehicle file (linear tyres of the
@@ -12,7 +13,9 @@
   ``vy-zero`` - ``v_y = 0``;
 * ``adaptive-ekf`` - :mod:`vehicle_observers.baselines.adaptive` with the terms and tuning
   chosen by :func:`vehicle_observers.estimation.selection.select`, a ``vy_std_mps`` column
-  (:func:`~vehicle_observers.estimation.selection.vy_std`) and the identifiability verdict
+  (the filter's std with the stiffness box as consider states, inflated by the innovation
+  consistency of :func:`~vehicle_observers.estimation.selection.vy_std`, then calibrated by
+  :func:`vehicle_observers.estimation.calibration.calibrate`) and the identifiability verdict
   in ``info["verdict"]`` (one line in ``info["verdict_line"]``);
 * ``fusion-interval`` - the same filter truncated to the ``interval-coordinates`` bounds
   (:mod:`vehicle_observers.baselines.fusion`).
@@ -32,7 +35,7 @@ import numpy as np
 
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
-from vehicle_observers.estimation import segments
+from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import estimator
 from vehicle_observers.models.tires import LinearTire
 
@@ -117,19 +120,21 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
             obs = FU.IntervalFusedEKF(veh.params, sel.terms, sel.tuning, use_ay, margin=margin)
             res = obs.filter_fused(t, vx, d, r, ay, fused[0][a:a + len(sub)],
                                    fused[1][a:a + len(sub)])
-        std = SE.vy_std(res["Pd"][:, 0], vx, sel.inflation)
+        std = SE.vy_std(res["Pd"][:, 0], vx, sel.inflation, beta_floor=0.0)
         return _columns(res["X"], std, sub, veh), res["seconds"]
 
     one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_std_mps", "ay_bias_mps2",
                    "bank_mps2", "kf", "kr", "Ff_N", "Fr_N")
     ok = segments.moving_rows(log, vehicle)
     cols, sec, n = segments.run_stretches(one, log, vehicle, ok, max_gap, progress)
-    v = SE.verdict(cols["vy_mps"], cols["vy_std_mps"], log, vehicle, use_ay, ok)
     info = {"selection": sel, "terms": str(sel.terms), "tuning": sel.tuning,
-            "verdict": v["verdict"], "verdict_line": v["line"], "signal_to_std": v["signal_to_std"],
             "stretches": n, "inflation": sel.inflation}
-    return Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
-                                   estimator=name, info=info)
+    tr = Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
+                                 estimator=name, info=info)
+    # the stiffness box is in the filter's covariance already (Schmidt consider states)
+    # unless the stiffness is estimated
+    considered = sel.terms.consider or sel.terms.stiffness
+    return calibration.calibrate(tr, log, vehicle, consider=not considered)
 
 
 @estimator("adaptive-ekf", "EKF with the model terms (roll gradient, a_y bias, bank, stiffness "
@@ -173,7 +178,8 @@ def run_fusion(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S
 @estimator("mbds-kf", "linear single-track KF of MBDS/sideslip-angle-vehicle-estimation "
            "(Leanza et al. 2021), their noise rule", columns=("ay_mps2",), paper="leanza2021")
 def run_mbds_kf(log: DriveLog, vehicle, **_):
-    return PE.mbds_kf(log, PE.SingleTrack.from_vehicle(vehicle))
+    return calibration.calibrate(PE.mbds_kf(log, PE.SingleTrack.from_vehicle(vehicle)), log,
+                                 vehicle)
 
 
 @estimator("mbds-fg", "factor graph of Leanza et al. 2021 (GTSAM model; batch, OFFLINE)",

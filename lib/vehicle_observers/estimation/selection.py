@@ -32,10 +32,14 @@ offset the measured channels cannot see).
 
 Verdict (:func:`verdict`): ``uninformative`` when the estimate does not stand out of its own
 uncertainty (RMS of ``v_y`` estimate below :data:`MIN_SIGNAL_TO_STD` times the RMS of its
-std: the estimate cannot be told from ``v_y = 0``), or when the log has no a_y channel and
-the yaw rate alone does not identify the axle stiffnesses
+std, or its 2-sigma band containing ``v_y = 0`` on more than
+:data:`~vehicle_observers.estimation.calibration.ZERO_COVERED` of the rows: the estimate
+cannot be told from ``v_y = 0``), or when the log has no a_y channel and the yaw rate alone
+does not identify the axle stiffnesses
 (:func:`~vehicle_observers.data.identification.identify_stiffness`); ``informative``
-otherwise. One line, also in ``Trajectory.info["verdict"]``.
+otherwise. One line, also in ``Trajectory.info["verdict"]``; an uninformative line says that
+``v_y = 0`` is expected to do as well. The std judged is the calibrated one
+(:mod:`vehicle_observers.estimation.calibration`).
 """
 
 from __future__ import annotations
@@ -274,7 +278,8 @@ def vy_std(Pd_vy, vx, inflation: float, beta_floor: float = BETA_FLOOR) -> np.nd
 
 def verdict(vy, std, log: DriveLog, vehicle, use_ay: bool, mask=None) -> dict:
     """Identifiability verdict from measured channels and the estimate's own uncertainty
-    (module docstring). Returns ``{"verdict", "line", "signal_to_std", "stiffness"}``."""
+    (module docstring). Returns ``{"verdict", "line", "signal_to_std", "zero_covered",
+    "stiffness"}``."""
     m = np.ones(len(vy), bool) if mask is None else np.asarray(mask, bool)
     sig = float(np.sqrt(np.mean(vy[m] ** 2)) / max(np.sqrt(np.mean(std[m] ** 2)), 1e-12))
     out = {"signal_to_std": sig, "stiffness": None}
@@ -289,10 +294,19 @@ def verdict(vy, std, log: DriveLog, vehicle, use_ay: bool, mask=None) -> dict:
         if not fit.identifiable:
             reasons.append("no a_y channel and the yaw rate alone does not identify the axle "
                            "stiffnesses")
+    from vehicle_observers.estimation.calibration import ZERO_COVERED, zero_covered
+
+    zc = zero_covered(vy, std, m)
+    out["zero_covered"] = zc
     if sig < MIN_SIGNAL_TO_STD:
         reasons.append(f"the v_y estimate (RMS) is {sig:.2f} x its own std: it cannot be told "
                        "from v_y = 0")
+    elif zc > ZERO_COVERED:
+        reasons.append(f"its 2-sigma band contains v_y = 0 on {100 * zc:.1f} % of the rows "
+                       f"(above {100 * ZERO_COVERED:.0f} %)")
     out["verdict"] = "uninformative" if reasons else "informative"
-    out["line"] = (f"UNINFORMATIVE: {'; '.join(reasons)}" if reasons else
-                   f"informative: RMS v_y estimate {sig:.1f} x its std")
+    out["line"] = (f"UNINFORMATIVE: {'; '.join(reasons)}; v_y = 0 is expected to do as well "
+                   "on this log" if reasons else
+                   f"informative: RMS v_y estimate {sig:.1f} x its std, 2-sigma band clear of "
+                   f"v_y = 0 on {100 * (1 - zc):.0f} % of the rows")
     return out
