@@ -203,3 +203,36 @@ def test_command_line_prints_and_writes_the_verdict(straightish, tmp_path, capsy
     assert "v_y = 0 is expected to do as well" in text
     meta = json.loads((tmp_path / "est.csv.verdict.json").read_text())
     assert meta["verdict"] == "uninformative" and meta["estimator"] == "ekf"
+
+
+def test_auto_choice_is_causal_with_hysteresis():
+    """The choice at row k reads the scores up to k - 1 only (a score change at row k
+    shows from row k + 1), and a candidate takes over only when it beats the current one by
+    the hysteresis margin (catches a choice that looks ahead or chatters between near-equal
+    candidates)."""
+    from vehicle_observers.estimation.auto import HYSTERESIS, choose
+
+    S = np.ones((10, 2))
+    S[:, 1] = 1.0 - 0.5 * HYSTERESIS           # better, but within the margin: kept out
+    assert not choose(S).any()
+    S[5:, 1] = 1.0 - 2.0 * HYSTERESIS          # clearly better from row 5
+    ch = choose(S)
+    assert ch[:6].tolist() == [0] * 6 and ch[6:].tolist() == [1] * 4
+
+
+def test_auto_outputs_the_chosen_candidates_estimate(corner):
+    """``auto`` returns, row by row, the estimate and calibrated std of the candidate it
+    says it chose, and names its candidates and shares (catches an index mix-up between the
+    candidates' columns)."""
+    veh = plant_vehicle(1)
+    est = EST.get("auto").run(corner, veh)
+    names = est.info["auto_candidates"]
+    ch = est.info["auto_choice"]
+    runs = {n: EST.get(n).run(corner, veh).columns for n in names}
+    for k in (0, len(corner) // 2, len(corner) - 1):
+        n = names[ch[k]]
+        assert est.columns["vy_mps"][k] == runs[n]["vy_mps"][k]
+        assert est.columns["vy_std_mps"][k] == runs[n]["vy_std_mps"][k]
+    assert sum(est.info["auto_share"].values()) == pytest.approx(1.0)
+    assert "auto chose among" in est.info["auto_line"]
+    assert est.info["verdict"] in ("informative", "uninformative")

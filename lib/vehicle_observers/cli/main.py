@@ -40,7 +40,9 @@ above 30 m/s, is an error, not a result. When the log has reference columns the 
 metrics are printed.
 Errors: one line on stderr, exit status 2 (bad input, including bad options), 3
 (unexpected internal error), 128 + signal number (SIGHUP 129, SIGINT 130, SIGTERM 143);
-never a traceback. Warnings: at most one line on stderr, after a successful run.
+never a traceback. Warnings: one line each on stderr, after a successful run (the vehicle file
+doubtful; a reference column, read by no estimator, out of range or changing scale: checked
+apart from the columns the estimator reads, which alone can refuse a log).
 
 Estimators come from :mod:`vehicle_observers.estimation.registry`: the built-in ones, the
 plug-ins installed under the entry-point group ``vehicle_observers.estimators``, the modules
@@ -215,13 +217,54 @@ def _check_options_against_log(args, log):
                        f"on every row; use at least {MIN_GAP_PERIODS * dt:.3g} s (default 0.5)")
 
 
-def _load(args, vehicle, columns=None, progress=None):
-    """The log, validated: schema, plausible units (unless --accept-out-of-range)."""
+def _load(args, vehicle, columns=None, progress=None, spec=None):
+    """The log, validated: schema, plausible units (unless --accept-out-of-range). With an
+    estimator ``spec``, only the columns it reads are checked (:func:`_reads`); the others
+    (references) are checked by :func:`_reference_warning`."""
     from vehicle_observers.data.logs import check_plausible, load_log
 
     log = load_log(args.log, min_vx=None, columns=columns, progress=progress)
-    check_plausible(log, vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
+    if spec is not None:
+        check_plausible(log, accept=True)        # absurd values in any column: refused always
+    check_plausible(log if spec is None else _reads(log, spec),
+                    vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
     return log
+
+
+def _reads(log, spec):
+    """The log restricted to the schema columns ``spec`` reads (required and optional)."""
+    from vehicle_observers.data.logs import _ATTR, DriveLog
+
+    reads = set(spec.needs) | set(spec.optional_columns)
+    kw = {a: getattr(log, a) for c, a in _ATTR.items() if c in reads}
+    return DriveLog(**kw, source=log.source)
+
+
+def _reference_warning(log, spec) -> str | None:
+    """One warning line when a column ``spec`` does not read (a reference, scored only)
+    changes scale or leaves its plausible range: the metrics against it are then doubtful,
+    the estimate is not."""
+    from vehicle_observers.data.logs import _ATTR, PLAUSIBLE, scale_change
+
+    reads = set(spec.needs) | set(spec.optional_columns)
+    refs = [c for c, a in _ATTR.items() if c not in reads and getattr(log, a) is not None]
+    if not refs:
+        return None
+    msg = scale_change(log, columns=refs)
+    if msg is None:
+        for c in refs:
+            lo, hi, why = PLAUSIBLE.get(c, (-np.inf, np.inf, ""))
+            v = getattr(log, _ATTR[c])
+            out = (v < lo) | (v > hi)
+            if out.any():
+                i = int(np.argmax(out))
+                msg = (f"column {c!r} = {v[i]:.4g} at row {i} is outside [{lo:g}, {hi:g}]: "
+                       f"{why}")
+                break
+    if msg is None:
+        return None
+    return (f"warning: reference column, read by no estimator here, only scored: {msg} "
+            "(the metrics against it may be wrong; the estimate is not affected)")
 
 
 def _check_vehicle(args, log, vehicle, spec=None) -> str | None:
@@ -366,10 +409,11 @@ def cmd_estimate(args, out=None):
             # every schema column is read and checked (an absurd value in any channel is
             # refused), plus the emulated logs' yaw-rate truth used for scoring
             cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps")
-            log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
+            log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"), spec)
             _check_options_against_log(args, log)
             spec.check(log, vehicle)
             warning = _check_vehicle(args, log, vehicle, spec)
+            ref_warning = _reference_warning(log, spec)
             bar.stage(10, "design / tuning")
             est = spec.estimate(log, vehicle, window_s=args.tune_window,
                                 progress=bar.observer, max_gap=args.max_gap, cache=True)
@@ -383,6 +427,7 @@ def cmd_estimate(args, out=None):
     finally:
         bar.bar.close()
     _warn(warning)
+    _warn(ref_warning)
     _report(args, spec, est, log, vehicle, out_path, score(est, log), out)
     return 0
 
@@ -430,6 +475,8 @@ def _report(args, spec, est, log, vehicle, out_path, m, out):
         print("metrics against the log's reference columns:", file=out)
         for line in _fmt_metrics(m):
             print(line, file=out)
+    if est.info.get("auto_line"):
+        print(est.info["auto_line"], file=out)
     v = est.info.get("verdict_info")
     if v:
         print(f"identifiability verdict: {v['verdict_line']}", file=out)
