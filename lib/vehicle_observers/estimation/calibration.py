@@ -30,7 +30,7 @@ of four terms (:func:`calibrated_std`):
    ``(m v_x / (C_f + C_r))^2 max(0, power - R_ay)``. Logs without ``a_y``: 0.
 4. **Sideslip floor** ``(v_x tan BETA_FLOOR)^2``: the constant sideslip offset no lateral model
    here holds (wheel alignment, ply steer) and no measured channel shows
-   (:data:`vehicle_observers.estimation.selection.BETA_FLOOR`, 0.1 deg).
+   (:data:`BETA_FLOOR`, 0.1 deg).
 
 The four are independent error sources, so their variances add. Nothing here is fitted to a
 reference column: the box and the floor are declared, the residual term is measured.
@@ -49,6 +49,10 @@ import numpy as np
 
 from vehicle_observers.data.logs import DriveLog
 
+#: constant-sideslip floor of the uncertainty [rad] (0.1 deg: a wheel-alignment tolerance)
+BETA_FLOOR = math.radians(0.1)
+#: the estimate is "informative" when RMS(v_y) >= this x RMS(v_y std)
+MIN_SIGNAL_TO_STD = 1.0
 #: stiffness box half-width assumed when the vehicle file declares none (a road tyre's
 #: cornering stiffness varies by about +-10 % with load, pressure and wear)
 DEFAULT_REL = 0.10
@@ -116,8 +120,6 @@ def consider_variance(vy, r, log: DriveLog, vehicle) -> np.ndarray:
 
 def floor_variance(log: DriveLog) -> np.ndarray:
     """Term 4 of the module docstring [(m/s)^2], (N,)."""
-    from vehicle_observers.estimation.selection import BETA_FLOOR
-
     return (np.abs(log.vx) * math.tan(BETA_FLOOR)) ** 2
 
 
@@ -186,15 +188,13 @@ def verdict_info(vy, std, log: DriveLog, vehicle, low_speed=None) -> dict:
     of an estimate ``vy`` with std ``std`` (N,) over the rows not flagged ``low_speed``
     after the first :data:`SETTLE_S` seconds (the filters' initial transient), as
     ``{"verdict", "verdict_line", "signal_to_std", "zero_covered"}``."""
-    from vehicle_observers.estimation.selection import verdict as _verdict
-
     mask = log.t - log.t[0] > SETTLE_S
     if low_speed is not None:
         mask &= ~np.asarray(low_speed, bool)
     if not mask.any():
         mask = None
-    v = _verdict(np.asarray(vy, float), np.asarray(std, float), log, vehicle,
-                 log.ay is not None, mask)
+    v = identifiability(np.asarray(vy, float), np.asarray(std, float), log, vehicle,
+                        log.ay is not None, mask)
     return {"verdict": v["verdict"], "verdict_line": v["line"],
             "signal_to_std": v["signal_to_std"], "zero_covered": v["zero_covered"]}
 
@@ -215,3 +215,38 @@ def verdict_of(traj, log: DriveLog, vehicle) -> dict:
     std = calibrated_std(cols["vy_mps"], cols["yaw_rate_radps"], log, vehicle,
                          cols.get("vy_std_mps"))
     return verdict_info(cols["vy_mps"], std, log, vehicle, traj.flags.get("low_speed"))
+
+
+def identifiability(vy, std, log: DriveLog, vehicle, use_ay: bool, mask=None) -> dict:
+    """Identifiability verdict (:func:`vehicle_observers.estimation.selection.verdict`, whose
+    module docstring states it) of an estimate ``vy`` with std ``std`` [m/s] (N,) over the
+    rows ``mask``. Returns ``{"verdict", "line", "signal_to_std", "zero_covered",
+    "stiffness"}``."""
+    m = np.ones(len(vy), bool) if mask is None else np.asarray(mask, bool)
+    sig = float(np.sqrt(np.mean(vy[m] ** 2)) / max(np.sqrt(np.mean(std[m] ** 2)), 1e-12))
+    out = {"signal_to_std": sig, "stiffness": None}
+    reasons = []
+    if not use_ay:
+        from vehicle_observers.data.identification import identify_stiffness
+
+        p = vehicle.params
+        fit = identify_stiffness(log, p.m, p.I_z, p.a_f, p.a_r, channels=("yaw_rate",),
+                                 nonlinear=False)
+        out["stiffness"] = bool(fit.identifiable)
+        if not fit.identifiable:
+            reasons.append("no a_y channel and the yaw rate alone does not identify the axle "
+                           "stiffnesses")
+    zc = zero_covered(vy, std, m)
+    out["zero_covered"] = zc
+    if sig < MIN_SIGNAL_TO_STD:
+        reasons.append(f"the v_y estimate (RMS) is {sig:.2f} x its own std: it cannot be told "
+                       "from v_y = 0")
+    elif zc > ZERO_COVERED:
+        reasons.append(f"its 2-sigma band contains v_y = 0 on {100 * zc:.1f} % of the rows "
+                       f"(above {100 * ZERO_COVERED:.0f} %)")
+    out["verdict"] = "uninformative" if reasons else "informative"
+    out["line"] = (f"UNINFORMATIVE: {'; '.join(reasons)}; v_y = 0 is expected to do as well "
+                   "on this log" if reasons else
+                   f"informative: RMS v_y estimate {sig:.1f} x its std, 2-sigma band clear of "
+                   f"v_y = 0 on {100 * (1 - zc):.0f} % of the rows")
+    return out
