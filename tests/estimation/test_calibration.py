@@ -203,6 +203,10 @@ def test_command_line_prints_and_writes_the_verdict(straightish, tmp_path, capsy
     assert "v_y = 0 is expected to do as well" in text
     meta = json.loads((tmp_path / "est.csv.verdict.json").read_text())
     assert meta["verdict"] == "uninformative" and meta["estimator"] == "ekf"
+    # an estimator without stretch flags or yaw rate (v_y = 0) runs and is not assessed
+    rc = main(["estimate", str(log), "--vehicle", str(veh), "--observer", "vy-zero", "--out",
+               str(tmp_path / "zero.csv"), "--no-progress"])
+    assert rc == 0 and "verdict: not assessed" in capsys.readouterr().out
 
 
 def test_auto_choice_is_causal_with_hysteresis():

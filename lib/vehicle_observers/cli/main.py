@@ -459,13 +459,13 @@ def _write_verdict(out_path: Path, v: dict):
 
 def _report(args, spec, est, log, vehicle, out_path, m, out):
     n = len(est.t)
-    low = int(np.sum(est.flags["low_speed"]))
+    low = int(np.sum(est.flags.get("low_speed", 0)))   # estimators without stretches: none
     print(f"{spec.name} on {Path(args.log).name} ({n} samples, {log.duration:.1f} s) with "
           f"{vehicle.name}: {est.us_per_step:.3g} us/step (compiled kernels), real-time factor "
           f"{log.duration / max(est.seconds, 1e-12):.3g}x; design/tuning "
           f"{est.design_seconds:.2f} s", file=out)
     print(f"low-speed model on {low} row(s) (low_speed = 1); "
-          f"{int(np.sum(est.flags['reinit']))} re-initialisation(s) after gaps > "
+          f"{int(np.sum(est.flags.get('reinit', 0)))} re-initialisation(s) after gaps > "
           f"{args.max_gap:g} s (reinit = 1)", file=out)
     if not est.causal:
         print("note: this estimator is OFFLINE (uses future samples)", file=out)
