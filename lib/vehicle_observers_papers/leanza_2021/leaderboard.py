@@ -13,7 +13,8 @@ where ``t > 1 s``).
 Columns (:func:`rows`): ``rmse_vy`` [m/s], ``rmse_beta_deg`` (sideslip RMSE in degrees, the
 peers' metric), ``coverage_2sigma`` (share of scored samples with ``|v_y - ref| <= 2
 vy_std_mps``, estimators with a std column), ``nees`` (mean of ``((v_y - ref)/std)^2``; 1 for
-a consistent std), ``verdict`` (``info["verdict"]`` where given), ``causal``,
+a consistent std), ``verdict`` (``info["verdict"]`` where given, else
+:func:`vehicle_observers.estimation.calibration.verdict_of` of the estimate), ``causal``,
 ``us_per_step``.
 
 Targets (:func:`targets`), "best causal" over the causal estimators that are not baselines
@@ -153,8 +154,13 @@ def rows(data: dict, observers=None, progress=None) -> tuple[list[dict], list[st
             except Exception as exc:  # noqa: BLE001 - reported
                 errors.append(f"{dname}/{oname}: {type(exc).__name__}: {exc}")
                 continue
-            out.append({"dataset": dname, "observer": oname, "paper": spec.paper,
-                        **score_row(est, log, mask)})
+            row = score_row(est, log, mask)
+            if "verdict" not in row:      # estimators that give none: from the estimate itself
+                from vehicle_observers.estimation.calibration import verdict_of
+
+                v = verdict_of(est, log, veh)
+                row["verdict"], row["verdict_line"] = v["verdict"], v["verdict_line"]
+            out.append({"dataset": dname, "observer": oname, "paper": spec.paper, **row})
     return out, errors
 
 
