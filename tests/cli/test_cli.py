@@ -235,3 +235,39 @@ def test_closed_stdout_exits_quietly():
     p.stdout.close()                                   # before the child writes anything
     err = p.stderr.read()
     assert p.wait(timeout=120) == 141 and err == b""
+
+
+def test_reference_column_jump_is_warned_not_refused(stopgo, vehicle_file, tmp_path, capsys):
+    """A step by x17.5 in the reference v_y (an INS re-initialised) is no reason to refuse a log no
+    estimator reads it from: the estimate runs (exit 0) with one warning naming the reference
+    column and a jump, not a unit such as the steering-wheel angle; the same factor in the
+    yaw rate, which the EKF reads, still refuses the log (catches checks on the wrong
+    columns and a cause named from the factor alone)."""
+    from conftest import save
+    from vehicle_observers.data.logs import _step_why
+
+    def jump(col, f=17.5):
+        def edit(cols):
+            x = cols[col]
+            k = int(np.argmax(np.abs(x) > 0.5 * np.abs(x).max()))
+            x[k:] *= f
+        return edit
+
+    log = save(stopgo, tmp_path / "ref.csv", edit=jump("vy_mps"))
+    rc = main(["estimate", str(log), "--vehicle", str(vehicle_file), "--observer", "ekf",
+               "--out", str(tmp_path / "e.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert "reference column" in err and "'vy_mps'" in err and "jump" in err
+    assert "steering-wheel" not in err
+    bad = save(stopgo, tmp_path / "yaw.csv", edit=jump("yaw_rate_radps"))
+    rc = main(["estimate", str(bad), "--vehicle", str(vehicle_file), "--observer", "ekf",
+               "--out", str(tmp_path / "f.csv"), "--no-progress"])
+    assert rc == 2 and "'yaw_rate_radps'" in capsys.readouterr().err
+    kmh = save(stopgo, tmp_path / "kmh.csv", edit=jump("vy_mps", 3.6))
+    assert main(["estimate", str(kmh), "--vehicle", str(vehicle_file), "--observer", "ekf",
+                 "--out", str(tmp_path / "g.csv"), "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "reference column" in err and "km/h" in err, err
+    assert "steering-wheel" in _step_why(15.0, "delta_roadwheel_rad")
+    assert "steering-wheel" not in _step_why(15.0, "vy_mps")

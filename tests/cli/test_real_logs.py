@@ -385,7 +385,8 @@ def test_sigkill_partial_removed_by_the_next_run(capsys, tmp_path, car):
     assert part.exists() and not out.exists()
     code, _, err, _ = estimate(capsys, p, car["path"], "ekf", out=out)
     assert code == 0, err
-    assert sorted(x.name for x in d.iterdir()) == ["est.csv", "est.csv.provenance.json", "log.csv"]
+    assert sorted(x.name for x in d.iterdir()) == ["est.csv", "est.csv.provenance.json",
+                                                   "est.csv.verdict.json", "log.csv"]
 
 
 def test_subprocess_error_is_one_line_without_warnings(tmp_path, car):

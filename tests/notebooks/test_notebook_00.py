@@ -6,7 +6,6 @@ import os
 import subprocess
 import sys
 
-import nbformat
 import numpy as np
 import pytest
 from scipy.linalg import expm

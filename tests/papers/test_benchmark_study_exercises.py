@@ -4,7 +4,6 @@ says "not attempted" for an empty stub."""
 from dataclasses import replace
 
 import numpy as np
-import pytest
 from vehicle_observers import estimation as EST
 from vehicle_observers.baselines import kalman as K
 from vehicle_observers.data.scenarios import emulated_satory, sine_with_dwell

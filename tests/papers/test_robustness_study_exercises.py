@@ -1,8 +1,6 @@
 """Exercise checkers of notebook 08: each accepts a worked solution, rejects a wrong answer and
 says "not attempted" for an empty stub."""
 
-import hashlib
-import json
 
 import numpy as np
 import pytest

@@ -100,11 +100,10 @@ def test_a_live_figure_carries_its_initial_state_as_an_image_for_the_exported_pa
     the output must hold a PNG of the initial state, which the export keeps in place of the widget."""
     import matplotlib.pyplot as plt
     import nbformat
+    from IPython.core.interactiveshell import InteractiveShell
     from IPython.utils.capture import capture_output
     from nbformat.v4 import new_code_cell, new_notebook, new_output
     from vehicle_observers.results import html
-
-    from IPython.core.interactiveshell import InteractiveShell
 
     def draw(gain):
         fig, ax = plt.subplots()

@@ -499,7 +499,7 @@ def plan_size(doc: dict) -> dict:
     lmi = (len(lm["cars"]) * len(lm["stiffness_rel"]) * len(lm["speed_range"])
            * len(lm["kappa"])) if lm else 0
     longest = max(manoeuvre_seconds(m["name"], m["kwargs"]) for m in doc["truth"]["manoeuvres"])
-    rate = max([NATIVE_RATE[p.split(":")[0]] or 0.0 for p in doc["truth"]["plants"]]
+    rate = max([get_plant(p.split(":")[0]).native_rate or 0.0 for p in doc["truth"]["plants"]]
                + list(doc["sensors"]["rates_hz"]))
     bs = batch_size_of(doc["batch_size"], n)
     return {"tasks": n, "batches": -(-n // bs) if n else 0, "rows": n,

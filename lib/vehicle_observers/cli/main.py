@@ -51,7 +51,8 @@ Errors: one line on stderr, exit status 2 (bad input, including bad options), 3
 internal error), 128 + signal number (SIGHUP 129, SIGINT 130, SIGTERM 143); no traceback
 unless ``--debug``. Warnings: at most one line on stderr, after a successful run; with
 ``--debug`` every warning is shown (numerical warnings of numpy included) and an error
-prints its traceback.
+prints its traceback. A reference column, read by no estimator, out of range or
+changing scale gets a warning of its own: only the columns the estimator reads can refuse a log.
 
 Estimators come from :mod:`vehicle_observers.estimation.registry`: the built-in ones, the
 plug-ins installed under the entry-point group ``vehicle_observers.estimators``, the modules
@@ -240,13 +241,54 @@ def _check_options_against_log(args, log):
                        f"on every row; use at least {MIN_GAP_PERIODS * dt:.3g} s (default 0.5)")
 
 
-def _load(args, vehicle, columns=None, progress=None):
-    """The log, validated: schema, plausible units (unless --accept-out-of-range)."""
+def _load(args, vehicle, columns=None, progress=None, spec=None):
+    """The log, validated: schema, plausible units (unless --accept-out-of-range). With an
+    estimator ``spec``, only the columns it reads are checked (:func:`_reads`); the others
+    (references) are checked by :func:`_reference_warning`."""
     from vehicle_observers.data.logs import check_plausible, load_log
 
     log = load_log(args.log, min_vx=None, columns=columns, progress=progress)
-    check_plausible(log, vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
+    if spec is not None:
+        check_plausible(log, accept=True)        # absurd values in any column: refused always
+    check_plausible(log if spec is None else _reads(log, spec),
+                    vehicle.params.a_f + vehicle.params.a_r, args.accept_out_of_range)
     return log
+
+
+def _reads(log, spec):
+    """The log restricted to the schema columns ``spec`` reads (required and optional)."""
+    from vehicle_observers.data.logs import _ATTR, DriveLog
+
+    reads = set(spec.needs) | set(spec.optional_columns)
+    kw = {a: getattr(log, a) for c, a in _ATTR.items() if c in reads}
+    return DriveLog(**kw, source=log.source)
+
+
+def _reference_warning(log, spec) -> str | None:
+    """One warning line when a column ``spec`` does not read (a reference, scored only)
+    changes scale or leaves its plausible range: the metrics against it are then doubtful,
+    the estimate is not."""
+    from vehicle_observers.data.logs import _ATTR, PLAUSIBLE, scale_change
+
+    reads = set(spec.needs) | set(spec.optional_columns)
+    refs = [c for c, a in _ATTR.items() if c not in reads and getattr(log, a) is not None]
+    if not refs:
+        return None
+    msg = scale_change(log, columns=refs)
+    if msg is None:
+        for c in refs:
+            lo, hi, why = PLAUSIBLE.get(c, (-np.inf, np.inf, ""))
+            v = getattr(log, _ATTR[c])
+            out = (v < lo) | (v > hi)
+            if out.any():
+                i = int(np.argmax(out))
+                msg = (f"column {c!r} = {v[i]:.4g} at row {i} is outside [{lo:g}, {hi:g}]: "
+                       f"{why}")
+                break
+    if msg is None:
+        return None
+    return (f"warning: reference column, read by no estimator here, only scored: {msg} "
+            "(the metrics against it may be wrong; the estimate is not affected)")
 
 
 def _check_vehicle(args, log, vehicle, spec=None) -> str | None:
@@ -450,26 +492,55 @@ def cmd_estimate(args, out=None):
             # refused), plus the emulated logs' yaw-rate truth used for scoring
             cols = (*REQUIRED, *OPTIONAL, "yaw_rate_true_radps", *spec.columns,
                     *spec.optional_columns, *_undeclared_columns(spec, args.log))
-            log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"))
+            log = _load(args, vehicle, cols, bar.part(0, 10, "loading, bytes"), spec)
             _check_options_against_log(args, log)
             spec.check(log, vehicle)
             warning = _check_vehicle(args, log, vehicle, spec)
+            ref_warning = _reference_warning(log, spec)
             bar.stage(10, "design / tuning")
             est = spec.estimate(log, vehicle, window_s=args.tune_window,
                                 progress=bar.observer, max_gap=args.max_gap, cache=True,
                                 **options)
             table = est.table()
             _check_output(spec.name, table, args.accept_out_of_range)
+            est.info["verdict_info"] = _verdict(est, log, vehicle)
             bar.stage(85, "writing")
             side = _Sidecar(out_path, spec, options, args)
             sink.commit(sink.out.commit, table, bar.part(85, 100, "writing, rows"))
+            _write_verdict(out_path, est.info["verdict_info"])
             sink.commit(side.commit)
         bar.stage(100, "done")
     finally:
         bar.bar.close()
     _warn(warning)
+    _warn(ref_warning)
     _report(args, spec, est, log, vehicle, out_path, score(est, log), out)
     return 0
+
+
+def _verdict(est, log, vehicle) -> dict:
+    """The identifiability verdict of the estimate with the uncertainty method
+    (:func:`vehicle_observers.estimation.calibration.verdict_of`), JSON-ready."""
+    from vehicle_observers.estimation.calibration import verdict_of
+
+    v = verdict_of(est, log, vehicle)
+    out = {k: (float(x) if isinstance(x, (float, np.floating)) else x) for k, x in v.items()}
+    out["estimator"] = est.estimator
+    out["uncertainty"] = est.info.get("uncertainty", "the estimator's own")
+    return out
+
+
+def _verdict_path(out_path: Path) -> Path:
+    """The verdict's metadata file next to the estimates: ``<out>.verdict.json``."""
+    return out_path.with_name(out_path.name + ".verdict.json")
+
+
+def _write_verdict(out_path: Path, v: dict):
+    """Write the verdict metadata (JSON) next to the output, atomically."""
+    import json
+
+    with _Sink(_verdict_path(out_path)) as sink:
+        sink.commit(sink.out.commit_text, json.dumps(v, indent=1) + "\n")
 
 
 def _report(args, spec, est, log, vehicle, out_path, m, out):
@@ -496,6 +567,12 @@ def _report(args, spec, est, log, vehicle, out_path, m, out):
         print("metrics against the log's reference columns:", file=out)
         for line in _fmt_metrics(m):
             print(line, file=out)
+    if est.info.get("auto_line"):
+        print(est.info["auto_line"], file=out)
+    v = est.info.get("verdict_info")
+    if v:
+        print(f"identifiability verdict: {v['verdict_line']}", file=out)
+        print(f"wrote {_verdict_path(out_path)} (verdict, reason, uncertainty method)", file=out)
 
 
 #: what the ML tuning reads from the a_y channel (named when a log has none)

@@ -859,19 +859,26 @@ STEP_HOLD = 5
 STEP_FLOOR = {"vx_mps": 2.0, "delta_roadwheel_rad": 0.005, "yaw_rate_radps": 0.02,
               "ay_mps2": 0.5, "vy_mps": 0.05, "yL_m": 0.05, "psiL_rad": 0.005,
               "Ff_N": 1000.0, "Fr_N": 1000.0, "rho_1pm": 1e-3}
-#: the likely mistake for a step by a factor ``f`` (first match of ``lo <= f <= hi``)
-_STEP_WHY = ((3.0, 4.2, "km/h (x3.6) or ft (x3.3)"), (8.5, 11.0, "g (x1/9.81) or x10"),
-             (12.0, 20.0, "the steering-wheel angle (ratio ~15)"),
-             (45.0, 70.0, "degrees (x57.3)"), (80.0, 120.0, "cm (x100)"),
-             (800.0, 1200.0, "milli-units (x1000)"))
+#: the likely mistake for a step by a factor ``f`` (first match of ``lo <= f <= hi``) and the
+#: columns it can happen to (``None``: any column)
+_STEP_WHY = ((3.0, 4.2, "km/h (x3.6) or ft (x3.3)", ("vx_mps", "vy_mps", "yL_m", "ay_mps2")),
+             (8.5, 11.0, "g (x1/9.81) or x10", None),
+             (12.0, 20.0, "the steering-wheel angle (ratio ~15)", ("delta_roadwheel_rad",)),
+             (45.0, 70.0, "degrees (x57.3)", ("delta_roadwheel_rad", "yaw_rate_radps",
+                                               "psiL_rad")),
+             (80.0, 120.0, "cm (x100)", None), (800.0, 1200.0, "milli-units (x1000)", None))
 
 
-def _step_why(f: float) -> str:
+def _step_why(f: float, column: str | None = None) -> str:
+    """The likely cause of a persistent step by the factor ``f`` in ``column``: a unit
+    mistake that fits both the factor and the column, else a jump of the signal itself
+    (a re-initialised or faulty sensor) rather than a unit."""
     g = max(f, 1.0 / f)
-    for lo, hi, why in _STEP_WHY:
-        if lo <= g <= hi:
+    for lo, hi, why, cols in _STEP_WHY:
+        if lo <= g <= hi and (cols is None or column is None or column in cols):
             return f"{why} from that row?"
-    return "a change of unit from that row?"
+    return (f"no unit of this column differs by x{g:.3g}: a jump of the signal itself (a "
+            "sensor or an INS re-initialised, or a fault) rather than a change of unit?")
 
 
 def _noise_of_steps(x: np.ndarray, block: int = 200, blocks: int = 2000) -> float:
@@ -1081,7 +1088,7 @@ def scale_change(log: DriveLog, columns=None) -> str | None:
             k, f = st
             found.append((k, f"column {c!r} changes scale at row {k} (line {k + 2}): "
                              f"{float(x[k - 1]):.4g} -> {float(x[k]):.4g} (x{f:.3g}) and stays: "
-                             f"{_step_why(f)}"))
+                             f"{_step_why(f, c)}"))
     if not found and "ay_mps2" in cols and log.ay is not None:
         mv = np.flatnonzero(np.abs(log.vx) > 5.0)
         if len(mv) >= 200:
@@ -1095,7 +1102,7 @@ def scale_change(log: DriveLog, columns=None) -> str | None:
                 found.append((k, f"columns 'ay_mps2' and 'vx_mps' x 'yaw_rate_radps' change "
                                  f"their ratio at row {k} (line {k + 2}) by x{f:.3g} and keep "
                                  f"it: a unit of 'ay_mps2' (or of 'vx_mps' / 'yaw_rate_radps') "
-                                 f"changes there: {_step_why(f)}"))
+                                 f"changes there: {_step_why(f, 'ay_mps2')}"))
     if not found:
         return None
     k, msg = min(found, key=lambda kv: kv[0])

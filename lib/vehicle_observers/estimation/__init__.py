@@ -3,6 +3,7 @@
 from vehicle_observers.core.protocol import Observer, ObserverBase, Trajectory, run_readable
 from vehicle_observers.estimation import (
     adapters,  # noqa: F401  (registers the paper observers, after the Kalman family)
+    auto,  # noqa: F401  (registers auto: chooses among the others at run time)
     kalman_runs,  # noqa: F401  (registers ekf, ekf-filterpy, ukf, rts)
     peer_runs,  # noqa: F401  (registers the peers, baselines, adaptive-ekf, fusion-interval)
     references,  # noqa: F401  (registers open-loop-linear, linear-kf)

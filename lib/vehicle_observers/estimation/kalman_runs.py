@@ -2,6 +2,9 @@
 :mod:`vehicle_observers.baselines.ukf`, and filterpy) and the RTS smoother of
 :mod:`vehicle_observers.baselines.kalman`, with their noise tuning (the vehicle file's
 ``[kalman]`` table, or maximum likelihood of the measured channels' innovations, cached).
+Their ``vy_std_mps`` is calibrated (:func:`vehicle_observers.estimation.calibration.
+calibrate`: the filter's own std is kept as ``vy_std_filter_mps``) and they carry the
+identifiability verdict in ``info["verdict"]``.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from vehicle_observers.baselines.ukf import ukf as ukf_numba
 from vehicle_observers.core.errors import LogFormatError
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
-from vehicle_observers.estimation import segments
+from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import EstimatorSpec, register
 from vehicle_observers.models.vehicle import KalmanTuning, Vehicle
 
@@ -192,9 +195,10 @@ def _kalman_runner(fn, name, causal=True):
         cols, sec, n = segments.run_stretches(one, log, vehicle,
                                               segments.moving_rows(log, vehicle), max_gap,
                                               progress)
-        return Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=tsec,
-                                       causal=causal, estimator=name,
-                                       info={"tuning": tun, "stretches": n})
+        tr = Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=tsec,
+                                     causal=causal, estimator=name,
+                                     info={"tuning": tun, "stretches": n})
+        return calibration.calibrate(tr, log, vehicle)
     return run
 
 

@@ -2,7 +2,8 @@
 
 * ``mbds-kf`` - the linear single-track KF published with the Revs log
   (:func:`vehicle_observers.baselines.peers.mbds_kf`), on the vehicle file's zero-slip
-  stiffnesses (on ``revs250lm`` exactly their constants), their noise rule;
+  stiffnesses (on ``revs250lm`` exactly their constants), their noise rule; its ``v_y`` std
+  calibrated (:func:`vehicle_observers.estimation.calibration.calibrate`);
 * ``mbds-fg`` (offline batch) and ``mbds-fg-lag5`` (fixed lag of 5 samples: 4-sample
   look-ahead, not causal) - their factor graph;
 * ``linear-kf-ml`` - a plain linear Kalman filter on the vehicle file (linear tyres of the
@@ -12,7 +13,9 @@
   ``vy-zero`` - ``v_y = 0``;
 * ``adaptive-ekf`` - :mod:`vehicle_observers.baselines.adaptive` with the terms and tuning
   chosen by :func:`vehicle_observers.estimation.selection.select`, a ``vy_std_mps`` column
-  (:func:`~vehicle_observers.estimation.selection.vy_std`) and the identifiability verdict
+  (the filter's std with the stiffness box as consider states, inflated by the innovation
+  consistency of :func:`~vehicle_observers.estimation.selection.vy_std`, then calibrated by
+  :func:`vehicle_observers.estimation.calibration.calibrate`) and the identifiability verdict
   in ``info["verdict"]`` (one line in ``info["verdict_line"]``);
 * ``fusion-interval`` - the same filter truncated to the ``interval-coordinates`` bounds
   (:mod:`vehicle_observers.baselines.fusion`).
@@ -32,7 +35,7 @@ import numpy as np
 
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
-from vehicle_observers.estimation import segments
+from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import estimator
 from vehicle_observers.models.tires import LinearTire
 
@@ -75,18 +78,76 @@ def linear_vehicle(vehicle):
 
 
 def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=None,
-                  maxiter: int = 250) -> tuple[SE.Selection, float]:
+                  maxiter: int = 250, cache: bool = False) -> tuple[SE.Selection, float]:
     """The (cached) :func:`selection.select` of ``log``; ``linear``: no term, linear tyres
-    (the ``linear-kf-ml`` tuning). Returns (selection, seconds spent now)."""
+    (the ``linear-kf-ml`` tuning). ``cache=True`` (the command line) also keeps it on disk
+    as JSON in :func:`vehicle_observers.estimation.kalman_runs.cache_dir`, keyed by the
+    measured channels, the vehicle constants and box, the options and the source of the
+    filter and the selection (an edited rule never reuses an old entry). Returns (selection,
+    seconds spent now)."""
     cands = () if linear else tuple(AD.TERM_NAMES if candidates is None else candidates)
     key = _key(log, vehicle, f"{linear}{cands}{maxiter}")
     if key in _SELECTIONS:
         return _SELECTIONS[key], 0.0
     t0 = time.perf_counter()
-    veh = linear_vehicle(vehicle) if linear else vehicle
-    sel = SE.select(log, veh, candidates=cands, maxiter=maxiter)
+    sel = _disk_selection(key) if cache else None
+    if sel is None:
+        veh = linear_vehicle(vehicle) if linear else vehicle
+        sel = SE.select(log, veh, candidates=cands, maxiter=maxiter)
+        if cache:
+            _store_selection(key, sel)
     _SELECTIONS[key] = sel
     return sel, time.perf_counter() - t0
+
+
+def _selection_file(key: str):
+    from pathlib import Path
+
+    from vehicle_observers.estimation.kalman_runs import cache_dir
+
+    h = hashlib.sha256(key.encode())
+    for m in ("vehicle_observers.baselines.adaptive", "vehicle_observers.estimation.selection"):
+        h.update(Path(importlib.import_module(m).__file__).read_bytes())
+    return cache_dir() / f"selection-{h.hexdigest()}.json"
+
+
+def _disk_selection(key: str):
+    """The selection stored by :func:`_store_selection`, or ``None`` (missing, unreadable or
+    of another format)."""
+    import json
+    from dataclasses import fields
+
+    try:
+        d = json.loads(_selection_file(key).read_text())
+        terms = AD.Terms(**d["terms"])
+        names = {f.name for f in fields(AD.AdaptiveTuning)}
+        tun = AD.AdaptiveTuning(**{k: v for k, v in d["tuning"].items() if k in names})
+        return SE.Selection(terms, tun, d["rows"], float(d["nis_ratio"]), bool(d["use_ay"]),
+                            int(d["samples"]), float(d["iact"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _store_selection(key: str, sel) -> None:
+    """Write ``sel`` as JSON (atomic rename; an unwritable cache folder is skipped)."""
+    import json
+    import os
+    from dataclasses import asdict
+
+    f = _selection_file(key)
+    rows = [{k: (bool(v) if isinstance(v, (bool, np.bool_)) else
+                 float(v) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()}
+            for r in sel.rows]
+    d = {"terms": asdict(sel.terms), "tuning": asdict(sel.tuning), "rows": rows,
+         "nis_ratio": sel.nis_ratio, "use_ay": sel.use_ay, "samples": sel.samples,
+         "iact": sel.iact}
+    try:
+        f.parent.mkdir(parents=True, exist_ok=True)
+        tmp = f.with_name(f".{f.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(d))
+        os.replace(tmp, f)
+    except OSError:
+        pass
 
 
 def _columns(X, std, log, vehicle) -> dict:
@@ -103,8 +164,8 @@ def _columns(X, std, log, vehicle) -> dict:
 
 def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused=None,
                   progress=None, max_gap=segments.MAX_GAP_S, margin: float = 0.0,
-                  candidates=None, maxiter: int = 250):
-    sel, ssec = selection_for(log, vehicle, linear, candidates, maxiter)
+                  candidates=None, maxiter: int = 250, cache: bool = False):
+    sel, ssec = selection_for(log, vehicle, linear, candidates, maxiter, cache)
     veh = linear_vehicle(vehicle) if linear else vehicle
     use_ay = sel.use_ay
 
@@ -117,19 +178,21 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
             obs = FU.IntervalFusedEKF(veh.params, sel.terms, sel.tuning, use_ay, margin=margin)
             res = obs.filter_fused(t, vx, d, r, ay, fused[0][a:a + len(sub)],
                                    fused[1][a:a + len(sub)])
-        std = SE.vy_std(res["Pd"][:, 0], vx, sel.inflation)
+        std = SE.vy_std(res["Pd"][:, 0], vx, sel.inflation, beta_floor=0.0)
         return _columns(res["X"], std, sub, veh), res["seconds"]
 
     one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_std_mps", "ay_bias_mps2",
                    "bank_mps2", "kf", "kr", "Ff_N", "Fr_N")
     ok = segments.moving_rows(log, vehicle)
     cols, sec, n = segments.run_stretches(one, log, vehicle, ok, max_gap, progress)
-    v = SE.verdict(cols["vy_mps"], cols["vy_std_mps"], log, vehicle, use_ay, ok)
     info = {"selection": sel, "terms": str(sel.terms), "tuning": sel.tuning,
-            "verdict": v["verdict"], "verdict_line": v["line"], "signal_to_std": v["signal_to_std"],
             "stretches": n, "inflation": sel.inflation}
-    return Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
-                                   estimator=name, info=info)
+    tr = Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
+                                 estimator=name, info=info)
+    # the stiffness box is in the filter's covariance already (Schmidt consider states)
+    # unless the stiffness is estimated
+    considered = sel.terms.consider or sel.terms.stiffness
+    return calibration.calibrate(tr, log, vehicle, consider=not considered)
 
 
 @estimator("adaptive-ekf", "EKF with the model terms (roll gradient, a_y bias, bank, stiffness "
@@ -137,20 +200,21 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
            "innovations; v_y std and an identifiability verdict",
            optional_columns=("ay_mps2",), paper="this library")
 def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
-                 candidates=None, maxiter: int = 250, **_):
+                 candidates=None, maxiter: int = 250, cache: bool = False, **_):
     """``candidates``: the terms the selection may add (default: every term,
     ``adaptive.TERM_NAMES``); ``maxiter``: Nelder-Mead iterations
     per tuning."""
     return _run_adaptive(log, vehicle, "adaptive-ekf", progress=progress, max_gap=max_gap,
-                         candidates=candidates, maxiter=maxiter)
+                         candidates=candidates, maxiter=maxiter, cache=cache)
 
 
 @estimator("linear-kf-ml", "plain linear Kalman filter on the vehicle file (linear tyres of the "
            "zero-slip slopes, measures r and a_y), ML noise on measured channels",
            optional_columns=("ay_mps2",), paper="baseline")
-def run_linear_kf(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S, **_):
+def run_linear_kf(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
+                  cache: bool = False, **_):
     return _run_adaptive(log, vehicle, "linear-kf-ml", linear=True, progress=progress,
-                         max_gap=max_gap)
+                         max_gap=max_gap, cache=cache)
 
 
 @estimator("fusion-interval", "adaptive EKF truncated to the interval-coordinates bounds of "
@@ -159,21 +223,38 @@ def run_linear_kf(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GA
                          "uncertainty.stiffness_rel", "uncertainty.vx_min",
                          "uncertainty.vx_max"), paper="this library")
 def run_fusion(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
-               margin: float = 0.0, interval: Trajectory | None = None, **_):
+               margin: float = 0.0, interval: Trajectory | None = None, cache: bool = False,
+               **_):
     from vehicle_observers.estimation.registry import get
 
-    iv = interval if interval is not None else get("interval-coordinates").run(log, vehicle)
+    iv = interval if interval is not None else get("interval-coordinates").run(log, vehicle,
+                                                                              cache=cache)
     c = iv.columns
     tr = _run_adaptive(log, vehicle, "fusion-interval", fused=(c["vy_lo_mps"], c["vy_hi_mps"]),
-                       progress=progress, max_gap=max_gap, margin=margin)
+                       progress=progress, max_gap=max_gap, margin=margin, cache=cache)
     tr.info["interval_seconds"] = iv.seconds
     return tr
 
 
 @estimator("mbds-kf", "linear single-track KF of MBDS/sideslip-angle-vehicle-estimation "
            "(Leanza et al. 2021), their noise rule", columns=("ay_mps2",), paper="leanza2021")
-def run_mbds_kf(log: DriveLog, vehicle, **_):
-    return PE.mbds_kf(log, PE.SingleTrack.from_vehicle(vehicle))
+def run_mbds_kf(log: DriveLog, vehicle, max_gap=segments.MAX_GAP_S, progress=None, **_):
+    """Their KF on every stretch in motion, the kinematic low-speed model elsewhere (the
+    same standstill and gap handling as every built-in filter: their model divides by
+    ``v_x``), their noise rule from the whole log's channels."""
+    car = PE.SingleTrack.from_vehicle(vehicle)
+    sg = PE.mbds_kf_sigmas(log)
+
+    def one(sub, a):
+        tr = PE.mbds_kf(sub, car, sg)
+        return {k: tr.columns[k] for k in one.columns}, tr.seconds
+
+    one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "vy_std_mps")
+    cols, sec, n = segments.run_stretches(one, log, vehicle, segments.moving_rows(log, vehicle),
+                                          max_gap, progress)
+    tr = Trajectory.from_columns(log.t, cols, seconds=sec, estimator="mbds-kf",
+                                 info={"sigmas": sg, "car": car, "stretches": n})
+    return calibration.calibrate(tr, log, vehicle)
 
 
 @estimator("mbds-fg", "factor graph of Leanza et al. 2021 (GTSAM model; batch, OFFLINE)",

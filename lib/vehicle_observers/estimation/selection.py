@@ -32,10 +32,14 @@ offset the measured channels cannot see).
 
 Verdict (:func:`verdict`): ``uninformative`` when the estimate does not stand out of its own
 uncertainty (RMS of ``v_y`` estimate below :data:`MIN_SIGNAL_TO_STD` times the RMS of its
-std: the estimate cannot be told from ``v_y = 0``), or when the log has no a_y channel and
-the yaw rate alone does not identify the axle stiffnesses
+std, or its 2-sigma band containing ``v_y = 0`` on more than
+:data:`~vehicle_observers.estimation.calibration.ZERO_COVERED` of the rows: the estimate
+cannot be told from ``v_y = 0``), or when the log has no a_y channel and the yaw rate alone
+does not identify the axle stiffnesses
 (:func:`~vehicle_observers.data.identification.identify_stiffness`); ``informative``
-otherwise. One line, also in ``Trajectory.info["verdict"]``.
+otherwise. One line, also in ``Trajectory.info["verdict"]``; an uninformative line says that
+``v_y = 0`` is expected to do as well. The std judged is the calibrated one
+(:mod:`vehicle_observers.estimation.calibration`).
 """
 
 from __future__ import annotations
@@ -49,15 +53,15 @@ from vehicle_observers.baselines import adaptive as AD
 from vehicle_observers.baselines.smoother_check import ljung_box
 from vehicle_observers.data.identification import white_noise_std
 from vehicle_observers.data.logs import DriveLog
+from vehicle_observers.estimation.calibration import (
+    BETA_FLOOR,  # noqa: F401  (constant-sideslip floor [rad], 0.1 deg; used by vy_std)
+    MIN_SIGNAL_TO_STD,  # noqa: F401  (informative when RMS(v_y) >= this x RMS(std))
+)
 
 #: BIC decrease a term must bring to be added
 MIN_BIC_GAIN = 10.0
 #: relative growth of the summed Ljung-Box Q a term may cause and still be added
 MAX_Q_GROWTH = 0.10
-#: constant-sideslip floor of the uncertainty [rad] (0.1 deg: a wheel-alignment tolerance)
-BETA_FLOOR = math.radians(0.1)
-#: the estimate is "informative" when RMS(v_y) >= this x RMS(v_y std)
-MIN_SIGNAL_TO_STD = 1.0
 #: batch length [s] of the innovation autocorrelation time (:func:`batch_means_iact`)
 BATCH_S = 0.5
 #: thinning rate of the tuning window [Hz]
@@ -274,25 +278,9 @@ def vy_std(Pd_vy, vx, inflation: float, beta_floor: float = BETA_FLOOR) -> np.nd
 
 def verdict(vy, std, log: DriveLog, vehicle, use_ay: bool, mask=None) -> dict:
     """Identifiability verdict from measured channels and the estimate's own uncertainty
-    (module docstring). Returns ``{"verdict", "line", "signal_to_std", "stiffness"}``."""
-    m = np.ones(len(vy), bool) if mask is None else np.asarray(mask, bool)
-    sig = float(np.sqrt(np.mean(vy[m] ** 2)) / max(np.sqrt(np.mean(std[m] ** 2)), 1e-12))
-    out = {"signal_to_std": sig, "stiffness": None}
-    reasons = []
-    if not use_ay:
-        from vehicle_observers.data.identification import identify_stiffness
+    (module docstring; computed by :func:`vehicle_observers.estimation.calibration.
+    identifiability`). Returns ``{"verdict", "line", "signal_to_std", "zero_covered",
+    "stiffness"}``."""
+    from vehicle_observers.estimation.calibration import identifiability
 
-        p = vehicle.params
-        fit = identify_stiffness(log, p.m, p.I_z, p.a_f, p.a_r, channels=("yaw_rate",),
-                                 nonlinear=False)
-        out["stiffness"] = bool(fit.identifiable)
-        if not fit.identifiable:
-            reasons.append("no a_y channel and the yaw rate alone does not identify the axle "
-                           "stiffnesses")
-    if sig < MIN_SIGNAL_TO_STD:
-        reasons.append(f"the v_y estimate (RMS) is {sig:.2f} x its own std: it cannot be told "
-                       "from v_y = 0")
-    out["verdict"] = "uninformative" if reasons else "informative"
-    out["line"] = (f"UNINFORMATIVE: {'; '.join(reasons)}" if reasons else
-                   f"informative: RMS v_y estimate {sig:.1f} x its std")
-    return out
+    return identifiability(vy, std, log, vehicle, use_ay, mask)

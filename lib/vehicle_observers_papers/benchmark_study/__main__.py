@@ -30,6 +30,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-leaderboard", action="store_true", help="skip the leaderboard")
     ap.add_argument("--plugin", action="append", default=[], metavar="MODULE|FILE.py",
                     help="load a plug-in: its estimators join the study and the leaderboard")
+    ap.add_argument("--no-cli-speed", action="store_true",
+                    help="skip the command-line wall times on the Revs log")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     from vehicle_observers.estimation import registry
@@ -42,8 +44,10 @@ def main(argv=None) -> int:
     topics = None if args.no_topics else speed.topic_benchmarks(args.quick)
     board = None
     if not args.no_leaderboard:
-        table, lb_errors = LB.rows(LB.datasets(args.quick, seed=args.seed), progress=lambda s: print(
-            f"  leaderboard {s}", file=sys.stderr, flush=True))
+        table, lb_errors = LB.rows(LB.datasets(args.quick, seed=args.seed, cars=(1, 2, 3),
+                                               cross=True, emulated=True),
+                                   progress=lambda s: print(f"  leaderboard {s}",
+                                                            file=sys.stderr, flush=True))
         cost = [r["us_per_step"] for r in topics or () if r["topic"] == "leaderboard"]
         board = (table, LB.targets(table, cost[0] if cost else None), lb_errors)
     paths = writers.write_outputs(res, Path(args.out), topics, board)
@@ -71,6 +75,10 @@ def main(argv=None) -> int:
         print()
         print(LB.markdown([{**t, "met": "met" if t["met"] else "MISSED"} for t in board[1]],
                           ("dataset", "target", "value", "limit", "met", "detail")))
+    if not args.no_cli_speed:
+        print("\n## Command line on the Revs log: warm wall time per estimator / the EKF's\n")
+        print(LB.markdown(LB.cli_speed(), ("observer", "cold_s", "warm_s", "ratio_to_ekf",
+                                           "limit", "met", "error")))
     print(f"\nwrote {', '.join(str(p) for p in paths)} in {time.perf_counter() - t0:.1f} s")
     return 0
 

@@ -24,14 +24,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from vehicle_observers import estimation as EST
-from vehicle_observers.core.errors import LogFormatError
-from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models import lateral
 from vehicle_observers.models.vehicle import load_vehicle
 from vehicle_observers.results.teaching import check
-
-from vehicle_observers_papers.course import families
 
 # ------------------------------------------------------------------ exercise 1 ---------------
 
