@@ -125,7 +125,8 @@ def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V):
         X = A.T @ P + P @ A - K @ C - C.T @ K.T
         if c.alpha:
             X = X + c.alpha * P
-        return bmat([[X, PE], [PE.T, -cc * np.eye(E.shape[1])]])
+        EP = E.T @ P if not np.any(D) else PE.T
+        return bmat([[X, PE], [EP, -cc * np.eye(E.shape[1])]])
     raise TypeError(type(c))
 
 
@@ -375,7 +376,7 @@ class ObserverSynthesis:
                                         "variable of this design (give BoundedReal(gamma=None) "
                                         "or InputToState(c=None))")
         obj = None if objective is None else (lambda V: V[objective])
-        sol = d.solve(objective=obj, raise_on_failure=False,
+        sol = d.solve(objective=obj, raise_on_failure=raise_on_violation,
                       min_relative_margin=min_relative_margin, max_condition=max_condition)
         P = sol["P"]
         L = np.array([np.linalg.solve(P, sol[f"{self.gain_name}{j}"])
