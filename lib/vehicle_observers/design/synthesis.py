@@ -131,14 +131,22 @@ def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V):
 
 
 def _offdiag(X):
+    """Off-diagonal entries of ``X`` as a row (cvxpy or numpy)."""
     n = X.shape[0]
+    if isinstance(X, np.ndarray):
+        return X[~np.eye(n, dtype=bool)][None]
     import cvxpy as cp
-    return cp.hstack([X[a, b] for a in range(n) for b in range(n) if a != b])
+    return cp.reshape(cp.hstack([X[a, b] for a in range(n) for b in range(n) if a != b]),
+                      (1, n * (n - 1)), order="C")
 
 
 def _diag(X):
+    """Diagonal entries of ``X`` as a row (cvxpy or numpy)."""
+    n = X.shape[0]
+    if isinstance(X, np.ndarray):
+        return np.diag(X)[None]
     import cvxpy as cp
-    return cp.hstack([X[a, a] for a in range(X.shape[0])])
+    return cp.reshape(cp.hstack([X[a, a] for a in range(n)]), (1, n), order="C")
 
 
 # ---- result objects -------------------------------------------------------------------------
