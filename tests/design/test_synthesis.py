@@ -275,3 +275,20 @@ def test_property_every_certified_design_recertifies(seed, n):
         X = des.P @ (Ai - L @ C)
         assert np.linalg.eigvalsh(X + X.T + 0.2 * des.P).max() < 0
         assert np.linalg.eigvals(Ai - L @ C).real.max() < -0.1
+
+
+def test_parametric_map_matches_one_design_per_point():
+    """The map built once with cvxpy Parameters gives, point for point, the status of a
+    separately posed ObserverSynthesis (catches a wrong parametric formulation)."""
+    s = PolytopicSystem(A_V, C1)
+    alphas, radii = np.array([0.5, 3.0, 8.0]), np.array([3.0, 12.0])
+    m = synthesis.decay_disk_map(s, alphas, radii)
+    for ia, a in enumerate(alphas):
+        for ir, R in enumerate(radii):
+            try:
+                st = ObserverSynthesis(s, [Decay(a), InRegion(disk(R))]).solve(
+                    raise_on_violation=False).status
+            except Exception:
+                st = "infeasible"
+            assert (m["status"][ia, ir] == "certified") == (st == "certified"), (a, R)
+    assert (m["status"] == "certified").any() and (m["status"] == "infeasible").any()

@@ -292,6 +292,9 @@ class LMISolution:
     status: str
     solve_time: float
     objective: float | None
+    #: the solver's own time (Clarabel's ``solve_time``, cvxpy's canonicalisation excluded)
+    #: [s]; ``solve_time`` is the wall time of ``Problem.solve`` (canonicalisation included)
+    solver_seconds: float = float("nan")
 
     def __getitem__(self, key):
         return self.values[key]
@@ -512,8 +515,11 @@ class LMIDesign:
             expr = self._vars[k]
             values[k] = np.array(expr if raw is None else expr.value, dtype=float)
         cert = self.certify(values, min_relative_margin, max_condition)
+        stats = getattr(prob, "solver_stats", None)
+        own = getattr(stats, "solve_time", None) if stats is not None else None
         sol = LMISolution(self.name, values, cert, status, dt,
-                          None if objective is None else float(prob.value))
+                          None if objective is None else float(prob.value),
+                          float(own) if own is not None else float("nan"))
         if raise_on_failure and not cert.ok:
             w = cert.worst()
             what = {"neg": "largest eigenvalue", "pos": "smallest eigenvalue",
