@@ -51,6 +51,7 @@ lab: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m vehicle_observers_papers.benchmark_study
 	$(BIN)/python -m vehicle_observers.bench.campaign
+	$(BIN)/python -m vehicle_observers.bench.lmi_layer
 
 lint: $(STAMP)
 	$(BIN)/ruff check lib tests notebooks

@@ -1,1 +1,1 @@
-"""LMI synthesis with an independent eigenvalue certificate, and LMI pole regions."""
+"""LMI synthesis of observers on polytopic / TS systems, certified from the data."""

@@ -178,12 +178,19 @@ class Certificate:
 
     :attr:`ok`: every constraint has the required sign. :attr:`status` also asks whether the
     signs mean something numerically: ``"violated"`` (a constraint fails), ``"inconclusive"``
-    (all signs right, but the smallest relative margin is below :data:`MIN_RELATIVE_MARGIN` or
-    a positive-definite constraint matrix has a condition number above :data:`MAX_CONDITION`),
-    else ``"certified"``.
+    (all signs right, but the smallest relative margin is below ``min_relative`` (default
+    :data:`MIN_RELATIVE_MARGIN`) or a positive-definite constraint matrix has a condition
+    number above ``max_cond`` (default :data:`MAX_CONDITION`)), else ``"certified"``. The two
+    thresholds are per certificate: :meth:`LMIDesign.solve` and
+    :func:`vehicle_observers.design.certify.certify_observer` take them per call.
     """
 
     checks: list[ConstraintCheck] = field(default_factory=list)
+    #: smallest conclusive relative margin of this certificate (default
+    #: :data:`MIN_RELATIVE_MARGIN`)
+    min_relative: float = MIN_RELATIVE_MARGIN
+    #: largest conclusive condition number of a ``"pos"`` matrix (default :data:`MAX_CONDITION`)
+    max_cond: float = MAX_CONDITION
 
     @property
     def ok(self) -> bool:
@@ -204,7 +211,7 @@ class Certificate:
         if not self.ok:
             return "violated"
         rel = self.min_relative_margin
-        if (not np.isnan(rel) and rel < MIN_RELATIVE_MARGIN) or self.max_condition > MAX_CONDITION:
+        if (not np.isnan(rel) and rel < self.min_relative) or self.max_condition > self.max_cond:
             return "inconclusive"
         return "certified"
 
@@ -231,6 +238,19 @@ class Certificate:
     def as_dict(self) -> dict:
         return {c.name: {"kind": c.kind, "margin": c.margin, "relative": c.relative}
                 for c in self.checks}
+
+
+def _threshold(what: str, v) -> float:
+    """A certificate threshold: a finite number > 0."""
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        raise ObserverArgumentError(f"certificate threshold {what} must be a number, got "
+                                    f"{v!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise ObserverArgumentError(f"certificate threshold {what} must be finite and > 0, got "
+                                    f"{v!r}")
+    return v
 
 
 def check_matrix(name: str, M, kind: str) -> ConstraintCheck:
@@ -272,6 +292,9 @@ class LMISolution:
     status: str
     solve_time: float
     objective: float | None
+    #: the solver's own time (Clarabel's ``solve_time``, cvxpy's canonicalisation excluded)
+    #: [s]; ``solve_time`` is the wall time of ``Problem.solve`` (canonicalisation included)
+    solver_seconds: float = float("nan")
 
     def __getitem__(self, key):
         return self.values[key]
@@ -442,15 +465,23 @@ class LMIDesign:
         _check_shape(self.name, name, M, kind)
         return M
 
-    def certify(self, values: dict) -> Certificate:
-        """Recompute every constraint from numeric ``values`` and check its eigenvalues."""
+    def certify(self, values: dict, min_relative_margin: float = MIN_RELATIVE_MARGIN,
+                max_condition: float = MAX_CONDITION) -> Certificate:
+        """Recompute every constraint from numeric ``values`` and check its eigenvalues
+        (``min_relative_margin``, ``max_condition``: the thresholds of
+        :attr:`Certificate.status`)."""
         V = Values(values)
         return Certificate([check_matrix(name, self._build(name, kind, b, V), kind)
-                            for name, kind, b in self._cons])
+                            for name, kind, b in self._cons],
+                           _threshold("min_relative_margin", min_relative_margin),
+                           _threshold("max_condition", max_condition))
 
     def solve(self, objective: Callable | None = None, solver: str = "CLARABEL",
-              raise_on_failure: bool = True, **solver_kw) -> LMISolution:
-        """Solve (minimise ``objective(V)`` if given), then certify independently.
+              raise_on_failure: bool = True, min_relative_margin: float = MIN_RELATIVE_MARGIN,
+              max_condition: float = MAX_CONDITION, **solver_kw) -> LMISolution:
+        """Solve (minimise ``objective(V)`` if given), then certify independently
+        (thresholds ``min_relative_margin``, ``max_condition`` of the certificate's status,
+        defaults :data:`MIN_RELATIVE_MARGIN`, :data:`MAX_CONDITION`).
 
         Raises :class:`InfeasibleDesign` if the solver finds no solution and
         :class:`CertificationError` if its solution fails the eigenvalue certificate
@@ -483,9 +514,12 @@ class LMIDesign:
         for k, raw in self._raw.items():
             expr = self._vars[k]
             values[k] = np.array(expr if raw is None else expr.value, dtype=float)
-        cert = self.certify(values)
+        cert = self.certify(values, min_relative_margin, max_condition)
+        stats = getattr(prob, "solver_stats", None)
+        own = getattr(stats, "solve_time", None) if stats is not None else None
         sol = LMISolution(self.name, values, cert, status, dt,
-                          None if objective is None else float(prob.value))
+                          None if objective is None else float(prob.value),
+                          float(own) if own is not None else float("nan"))
         if raise_on_failure and not cert.ok:
             w = cert.worst()
             what = {"neg": "largest eigenvalue", "pos": "smallest eigenvalue",
@@ -577,3 +611,60 @@ def sector(theta: float) -> Region:
     s, c = np.sin(theta), np.cos(theta)
     return Region(f"sector {np.degrees(theta):.1f} deg",
                   np.zeros((2, 2)), np.array([[s, c], [-c, s]]))
+
+
+def strip(lo: float | None = None, hi: float | None = None, half_width: float | None = None
+          ) -> Region:
+    """Vertical strip ``lo < Re(z) < hi`` (Chilali & Gahinet 1996, ``L = diag(2 lo, -2 hi)``,
+    ``M = diag(-1, 1)``) or, with ``half_width = w``, the horizontal strip ``|Im z| < w``
+    (``L = -2 w I_2``, ``M = [[0, 1], [-1, 0]]``: oscillation frequency below ``w`` rad/s)."""
+    if half_width is not None:
+        if lo is not None or hi is not None:
+            raise ObserverArgumentError("strip: give either lo/hi (vertical) or half_width "
+                                        "(horizontal), not both")
+        w = _finite("strip", "half_width", half_width, positive=True)
+        return Region(f"|Im z| < {w:g}", -2.0 * w * np.eye(2), np.array([[0.0, 1.0],
+                                                                          [-1.0, 0.0]]))
+    if lo is None or hi is None:
+        raise ObserverArgumentError("strip: a vertical strip needs both lo and hi")
+    lo, hi = _finite("strip", "lo", lo), _finite("strip", "hi", hi)
+    if not lo < hi:
+        raise ObserverArgumentError(f"strip: need lo < hi, got {lo!r}, {hi!r}")
+    return Region(f"{lo:g} < Re(z) < {hi:g}", np.diag([2.0 * lo, -2.0 * hi]),
+                  np.diag([-1.0, 1.0]))
+
+
+def ellipse(a: float, b: float, center: float = 0.0) -> Region:
+    """Ellipse ``((Re z - center)/a)^2 + (Im z / b)^2 < 1`` (axes ``a`` along the real axis,
+    ``b`` along the imaginary one). Chilali & Gahinet (1996) form ``f(z) = [[-1, g], [conj(g),
+    -1]] < 0`` with ``g = Re(z - c)/a + i Im(z)/b`` (so ``f < 0`` iff ``|g| < 1``):
+    ``L = [[-1, -c/a], [-c/a, -1]]``, ``M = [[0, (1/a + 1/b)/2], [(1/a - 1/b)/2, 0]]``."""
+    a = _finite("ellipse", "a", a, positive=True)
+    b = _finite("ellipse", "b", b, positive=True)
+    c = _finite("ellipse", "center", center)
+    L = np.array([[-1.0, -c / a], [-c / a, -1.0]])
+    M = np.array([[0.0, (1 / a + 1 / b) / 2], [(1 / a - 1 / b) / 2, 0.0]])
+    return Region(f"ellipse a={a:g} b={b:g} c={c:g}", L, M)
+
+
+def unit_disk(rho: float = 1.0) -> Region:
+    """Discrete time: poles strictly inside the disk ``|z| < rho`` (``rho <= 1``; ``rho = 1``
+    is Schur stability, ``rho < 1`` a contraction rate per sample)."""
+    rho = _finite("unit_disk", "rho", rho, positive=True)
+    if rho > 1:
+        raise ObserverArgumentError(f"unit_disk: rho must be <= 1 (inside the unit circle), got "
+                                    f"{rho!r}")
+    r = disk(rho)
+    return Region(f"|z| < {rho:g} (discrete)", r.L, r.M)
+
+
+def discrete_disk(R: float, center: float = 0.0) -> Region:
+    """Discrete time: the disk ``|z - center| < R`` inside the unit circle
+    (``|center| + R <= 1``), e.g. to bound the damping and the speed of a sampled observer."""
+    R = _finite("discrete_disk", "R", R, positive=True)
+    center = _finite("discrete_disk", "center", center)
+    if abs(center) + R > 1:
+        raise ObserverArgumentError(f"discrete_disk: |center| + R = {abs(center) + R:g} > 1: the "
+                                    "disk leaves the unit circle")
+    r = disk(R, center)
+    return Region(f"|z - {center:g}| < {R:g} (discrete)", r.L, r.M)

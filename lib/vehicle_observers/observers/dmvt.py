@@ -53,7 +53,10 @@ from numba import njit
 
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
 from vehicle_observers.core.protocol import Trajectory
-from vehicle_observers.design.lmi import LMIDesign, LMISolution, Region
+from vehicle_observers.design.constraints import Decay, InRegion
+from vehicle_observers.design.lmi import LMISolution, Region
+from vehicle_observers.design.synthesis import ObserverSynthesis
+from vehicle_observers.design.system import PolytopicSystem
 from vehicle_observers.models.bicycle import BP_C, BP_G, BP_P, BP_V, BicycleParams, plant_rhs
 from vehicle_observers.models.ts import JacobianTS, SectorTS, memberships
 from vehicle_observers.observers.fixed_step import FixedStepObserver, positive, row_names
@@ -165,6 +168,9 @@ class DMVTDesign:
     poles: PoleSummary
     solution: LMISolution
     regions: list
+    #: the certificate rebuilt from the vertex data, the gains and P
+    #: (:class:`vehicle_observers.design.certify.ObserverCertificate`)
+    data_certificate: object = None
 
     @property
     def certificate(self):
@@ -207,6 +213,13 @@ def design_dmvt_observer(vertices, C, r: int = 1, region=None, P_lower: float = 
 
     Returns a :class:`DMVTDesign`; raises :class:`InfeasibleDesign` naming the LMIs when the
     solver finds none, :class:`CertificationError` when the solution fails either check.
+
+    A call of the synthesis layer (:class:`~vehicle_observers.design.synthesis.ObserverSynthesis`):
+    the vertices as a :class:`~vehicle_observers.design.system.PolytopicSystem`, ``r`` gains
+    against every vertex (``gains="pairs"``), :class:`~vehicle_observers.design.constraints.Decay`
+    with ``alpha = 0`` (the LMIs (23)) and one
+    :class:`~vehicle_observers.design.constraints.InRegion` per region; the data certificate
+    (``DMVTDesign.data_certificate``) rebuilds every LMI from ``A_i``, ``C``, ``L_j``, ``P``.
     """
     who = "design_dmvt_observer"
     A = np.asarray(vertices, dtype=float)
@@ -229,29 +242,15 @@ def design_dmvt_observer(vertices, C, r: int = 1, region=None, P_lower: float = 
     if K_bound is not None:
         positive(who, "K_bound", K_bound)
     regs = as_regions(region)
-    p = C.shape[0]
-    d = LMIDesign(name, eps=eps)
-    d.symmetric("P", n)
-    for j in range(r):
-        d.matrix(f"K{j}", (n, p))
-    d.positive("P - P_lower I > 0", lambda V: V.P - P_lower * np.eye(n))
-    for i in range(q):
-        for j in range(r):
-            def pa(V, i=i, j=j):
-                return V.P @ A[i] - V[f"K{j}"] @ C
-            d.negative(f"(23)[{i + 1},{j + 1}]", lambda V, pa=pa: pa(V) + pa(V).T)
-            for reg in regs:
-                d.negative(f"region {reg.name}[{i + 1},{j + 1}]",
-                           lambda V, pa=pa, reg=reg: reg.lmi(V.P, pa(V)))
-    if K_bound is not None:
-        import cvxpy as cp
-        d.extra(lambda V: [cp.abs(V[f"K{j}"]) <= K_bound for j in range(r)])
-    sol = d.solve()
-    P = sol["P"]
-    K = np.array([sol[f"K{j}"] for j in range(r)])
-    L = np.array([np.linalg.solve(P, Kj) for Kj in K])
+    syn = ObserverSynthesis(PolytopicSystem(A, C, name=name),
+                            [Decay(0.0, label="(23)"), *(InRegion(reg) for reg in regs)],
+                            gains="pairs", n_gains=int(r), P_lower=P_lower, gain_bound=K_bound,
+                            eps=eps, order="vertex", name=name)
+    des = syn.solve()
+    sol, P, L = des.solution, des.P, des.L
+    K = np.array([sol[f"K{j}"] for j in range(int(r))])
     poles = check_poles(A, L, C, regs, name=name)
-    return DMVTDesign(P, K, L, poles, sol, regs)
+    return DMVTDesign(P, K, L, poles, sol, regs, des.certificate)
 
 
 def region_sweep(vertices, C, a_values, R_values, r: int = 1, **kw) -> dict:

@@ -64,7 +64,10 @@ from numba import njit
 from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
 from vehicle_observers.core.protocol import ObserverBase, Trajectory, check_sample_period
 from vehicle_observers.data.logs import DriveLog
-from vehicle_observers.design.lmi import Certificate, LMIDesign, LMISolution, bmat, check_matrix, disk
+from vehicle_observers.design.constraints import InputToState, InRegion
+from vehicle_observers.design.lmi import Certificate, LMISolution, bmat, check_matrix, disk
+from vehicle_observers.design.synthesis import ObserverSynthesis
+from vehicle_observers.design.system import PolytopicSystem
 from vehicle_observers.models.lateral import (
     A_F,
     A_R,
@@ -282,26 +285,10 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
     nr = ts.n_rules
     S = np.diag(np.asarray(scale, dtype=float))
     Si = np.linalg.inv(S)
-    As = [Si @ ts.A[i] @ S for i in range(nr)]
-    Cs, Gs = C_OUT @ S, Si @ GAMMA
-    d = LMIDesign(f"Yacine 2015 Theorem 1 (alpha={alpha:g})", eps=eps)
-    d.symmetric("P", 4)
-    for i in range(nr):
-        d.matrix(f"M{i}", (4, 1))
-    d.scalar("c")
-    d.positive("P>=I", lambda V: V.P - np.eye(4) + eps * np.eye(4))
-    if p_max is not None:
-        d.positive("P<=pmax I", lambda V: p_max * np.eye(4) - V.P + eps * np.eye(4))
-    for i in range(nr):
-        d.negative(f"Xi[{i + 1}]", lambda V, i=i: _xi(As[i], V.P, V[f"M{i}"], V.c, alpha, Cs, Gs))
-    if disk_radius is not None:
-        reg = disk(disk_radius)
-        for i in range(nr):
-            d.negative(f"disk[{i + 1}]",
-                       lambda V, i=i: reg.lmi(V.P, V.P @ As[i] - V[f"M{i}"] @ Cs))
+    syn = theorem1_synthesis(ts, alpha, scale, disk_radius, p_max, eps)
     t0 = time.perf_counter()
     try:
-        sol = d.solve(objective=lambda V: V.c)
+        sol = syn.solve(objective="c").solution
     except CertificationError:
         raise
     except InfeasibleDesign as exc:
@@ -329,6 +316,29 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
                                  f"(margin {w.margin:.3e})", lmi=w.name, violation=-w.margin)
     return ObserverDesign(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
                           solve_time, p_max)
+
+
+def theorem1_synthesis(ts: SectorTS, alpha: float = 1e-3, scale=STATE_SCALE,
+                       disk_radius: float | None = 600.0, p_max: float | None = 1e3,
+                       eps: float = 1e-2) -> ObserverSynthesis:
+    """Theorem 1 (33) of Yacine 2015 as a call of the synthesis layer, in the scaled state
+    ``x~ = S^-1 x`` (``S = diag(scale)``): the 8 vertices ``A~_i = S^-1 A_i S``, ``C~ = C S``,
+    disturbance ``Gamma~ = S^-1 Gamma`` as a
+    :class:`~vehicle_observers.design.system.PolytopicSystem`; one gain ``M_i`` per vertex
+    (``gains="pdc"``: the observer (31) uses the plant's memberships and ``C`` is common, so the
+    LMIs are ``G_ii < 0``); :class:`~vehicle_observers.design.constraints.InputToState` with
+    ``alpha`` and a free ``c`` (the matrix of (33), ``Xi[i]``); the disk region
+    (``disk[i]``); ``P~ >= I`` and ``P~ <= p_max I``. Objective ``min c``."""
+    S = np.diag(np.asarray(scale, dtype=float))
+    system = PolytopicSystem(ts.A, C_OUT, E=GAMMA, name="Yacine 2015 (24)").transformed(S)
+    cons = [InputToState(alpha, None, label="Xi")]
+    if disk_radius is not None:
+        cons.append(InRegion(disk(disk_radius), label="disk"))
+    return ObserverSynthesis(system, cons, gains="pdc", P_lower=1.0 - eps,
+                             P_upper=None if p_max is None else p_max + eps, eps=eps,
+                             order="constraint", gain_name="M", lower_name="P>=I",
+                             upper_name="P<=pmax I",
+                             name=f"Yacine 2015 Theorem 1 (alpha={alpha:g})")
 
 
 def _check_design_args(alpha, scale, disk_radius, p_max):

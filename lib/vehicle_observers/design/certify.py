@@ -1,0 +1,315 @@
+"""Certificate of an observer design rebuilt from the data: vertex matrices, gains, ``P``.
+
+:func:`certify_observer` never calls the builders that posed the problem to the solver
+(:mod:`vehicle_observers.design.synthesis`): it rewrites each LMI of
+:mod:`vehicle_observers.design.constraints` here, in numpy, from the system's arrays
+``A_i, C_i, E_i, D_i, H``, the gains ``L_j`` and ``P`` (``K_j = P L_j`` recomputed), stacks
+the matrices of every vertex pair and takes their eigenvalues in one vectorised LAPACK call.
+A mistake in how the problem was posed (a wrong vertex, a captured loop variable, a wrong
+sign) therefore shows up as "violated" here even when the solver and the builders agree.
+
+Three further checks from the same data, each necessary for the LMIs to mean what they say:
+
+* the poles of every frozen error system ``A_i - L_j C_i`` (inside each region, ``Re <
+  -alpha`` for a decay rate, ``|z| < 1`` in discrete time);
+* with a bounded-real constraint, the H-infinity norm of every frozen error system
+  ``(A_i - L_j C_i, E_i - L_j D_i, H, 0)`` computed by Hamiltonian bisection
+  (Boyd, Balakrishnan & Kabamba, MCSS 2(3), 1989; discrete time through the bilinear map
+  ``z = (1 + s)/(1 - s)``, which preserves the norm) must not exceed ``gamma``;
+* with a Metzler constraint, the off-diagonal entries of ``A_i - L_j C_i`` (from ``L``, not
+  from ``P``) must be >= 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.design.constraints import (
+    BoundedReal,
+    Decay,
+    InputToState,
+    InRegion,
+    Metzler,
+)
+from vehicle_observers.design.lmi import (
+    MAX_CONDITION,
+    MIN_RELATIVE_MARGIN,
+    Certificate,
+    ConstraintCheck,
+    check_matrix,
+)
+
+
+def _he(X):
+    return X + np.swapaxes(X, -1, -2)
+
+
+def _kron_stack(Lr, Mr, P, PA):
+    """``L (x) P + M (x) PA + M^T (x) PA^T`` for a stack ``PA`` (N, n, n)."""
+    N = PA.shape[0]
+    out = np.kron(Lr, P)[None] + np.einsum("ab,kij->kaibj", Mr, PA).reshape(
+        N, Mr.shape[0] * PA.shape[1], -1)
+    return out + np.einsum("ba,kji->kaibj", Mr, PA).reshape(N, Mr.shape[0] * PA.shape[1], -1)
+
+
+def _stack_matrices(c, system, P, K, pairs, gamma, cval):
+    """Matrices (N, m, m) of constraint ``c`` at the vertex pairs ``pairs`` [(i, j)]."""
+    i_ = np.array([p[0] for p in pairs])
+    j_ = np.array([p[1] for p in pairs])
+    A, C, E, D, H = system.A[i_], system.C[i_], system.E[i_], system.D[i_], system.H
+    Kp = K[j_]
+    PA = P[None] @ A - Kp @ C                           # (N, n, n)
+    N, n = PA.shape[:2]
+    if isinstance(c, Decay):
+        if system.discrete:
+            rho = float(np.exp(-c.alpha * system.dt))
+            Lr, Mr = np.array([[-rho, 0.0], [0.0, -rho]]), np.array([[0.0, 1.0], [0.0, 0.0]])
+            return _kron_stack(Lr, Mr, P, PA)
+        return _he(PA) + 2.0 * c.alpha * P[None]
+    if isinstance(c, InRegion):
+        return _kron_stack(c.region.L, c.region.M, P, PA)
+    PE = P[None] @ E - Kp @ D
+    nw, nz = E.shape[2], H.shape[0]
+    if isinstance(c, BoundedReal):
+        g = gamma
+        Z = np.zeros
+        Hs = np.broadcast_to(H, (N, nz, n))
+        if system.discrete:
+            top = np.concatenate([-np.broadcast_to(P, (N, n, n)), PA, PE, Z((N, n, nz))], 2)
+            r2 = np.concatenate([np.swapaxes(PA, 1, 2), -np.broadcast_to(P, (N, n, n)),
+                                 Z((N, n, nw)), np.swapaxes(Hs, 1, 2)], 2)
+            r3 = np.concatenate([np.swapaxes(PE, 1, 2), Z((N, nw, n)),
+                                 -g * np.broadcast_to(np.eye(nw), (N, nw, nw)), Z((N, nw, nz))], 2)
+            r4 = np.concatenate([Z((N, nz, n)), Hs, Z((N, nz, nw)),
+                                 -g * np.broadcast_to(np.eye(nz), (N, nz, nz))], 2)
+            return np.concatenate([top, r2, r3, r4], 1)
+        top = np.concatenate([_he(PA), PE, np.swapaxes(Hs, 1, 2)], 2)
+        r2 = np.concatenate([np.swapaxes(PE, 1, 2), -g * np.broadcast_to(np.eye(nw), (N, nw, nw)),
+                             Z((N, nw, nz))], 2)
+        r3 = np.concatenate([Hs, Z((N, nz, nw)), -g * np.broadcast_to(np.eye(nz), (N, nz, nz))], 2)
+        return np.concatenate([top, r2, r3], 1)
+    if isinstance(c, InputToState):
+        X = _he(PA) + c.alpha * P[None]
+        top = np.concatenate([X, PE], 2)
+        bot = np.concatenate([np.swapaxes(PE, 1, 2),
+                              -cval * np.broadcast_to(np.eye(nw), (N, nw, nw))], 2)
+        return np.concatenate([top, bot], 1)
+    raise TypeError(type(c))
+
+
+# ---- H-infinity norm by Hamiltonian bisection ---------------------------------------------
+def _hinf_continuous(A, B, C, D, rtol=1e-8):
+    """``||C (sI - A)^-1 B + D||_inf`` of a Hurwitz ``A`` (Boyd-Balakrishnan bisection):
+    ``gamma`` exceeds the norm iff the Hamiltonian of ``gamma`` has no imaginary eigenvalue."""
+    n = A.shape[0]
+    if B.shape[1] == 0 or C.shape[0] == 0:
+        return float(np.linalg.norm(D, 2)) if D.size else 0.0
+    sD = float(np.linalg.norm(D, 2)) if D.size else 0.0
+    G0 = C @ np.linalg.solve(-A, B) + D
+    lo = max(sD, float(np.linalg.norm(G0, 2)))
+    w = np.abs(np.linalg.eigvals(A))
+    for wk in w[w > 0]:                       # a few frequency samples raise the lower bound
+        Gw = C @ np.linalg.solve(1j * wk * np.eye(n) - A, B) + D
+        lo = max(lo, float(np.linalg.norm(Gw, 2)))
+    hi = max(2.0 * lo, 1e-300)
+
+    def has_axis_eig(g):
+        R = g * g * np.eye(D.shape[1]) - D.T @ D
+        Ri = np.linalg.inv(R)
+        Ah = A + B @ Ri @ D.T @ C
+        Hm = np.block([[Ah, B @ Ri @ B.T],
+                       [-C.T @ (np.eye(C.shape[0]) + D @ Ri @ D.T) @ C, -Ah.T]])
+        ev = np.linalg.eigvals(Hm)
+        return bool(np.any(np.abs(ev.real) < 1e-9 * max(1.0, float(np.abs(ev).max()))))
+
+    while has_axis_eig(hi):
+        lo, hi = hi, 2.0 * hi
+    if lo == 0.0:
+        lo = 0.0
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        if has_axis_eig(mid):
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def hinf_norm(A, B, C, D=None, discrete: bool = False, rtol: float = 1e-8) -> float:
+    """H-infinity norm of a stable ``(A, B, C, D)`` (``inf`` if ``A`` is not stable), by
+    Hamiltonian bisection to relative ``rtol``; discrete time via the bilinear map
+    ``A_c = (A + I)^-1 (A - I)``, ``B_c = sqrt(2) (A + I)^-1 B``, ``C_c = sqrt(2) C (A + I)^-1``,
+    ``D_c = D - C (A + I)^-1 B`` (same norm)."""
+    A, B, C = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (A, B, C))
+    D = np.zeros((C.shape[0], B.shape[1])) if D is None else np.atleast_2d(np.asarray(D, float))
+    ev = np.linalg.eigvals(A)
+    if (np.abs(ev).max() >= 1) if discrete else (ev.real.max() >= 0):
+        return float("inf")
+    if discrete:
+        n = A.shape[0]
+        Fi = np.linalg.inv(A + np.eye(n))
+        A, B, C, D = Fi @ (A - np.eye(n)), np.sqrt(2) * Fi @ B, np.sqrt(2) * C @ Fi, D - C @ Fi @ B
+    return _hinf_continuous(A, B, C, D, rtol)
+
+
+# ---- the certificate ----------------------------------------------------------------------
+@dataclass
+class ObserverCertificate:
+    """Data certificate of one observer design.
+
+    ``lmi``: :class:`~vehicle_observers.design.lmi.Certificate` of every LMI rebuilt in numpy
+    (names ``label[i]`` / ``label[i,j]`` as posed); ``poles`` (q, r, n) complex eigenvalues of
+    every frozen error system ``A_i - L_j C_i`` (NaN where the structure does not constrain the
+    pair); ``pole_failures`` what lies outside its region; ``hinf`` ``{pair: norm}`` of every
+    frozen error system (bounded-real designs); ``gamma`` the bound they must respect.
+    """
+
+    lmi: Certificate
+    poles: np.ndarray
+    pole_failures: list = field(default_factory=list)
+    hinf: dict = field(default_factory=dict)
+    gamma: float | None = None
+    hinf_rtol: float = 1e-6
+
+    @property
+    def hinf_failures(self) -> list:
+        if self.gamma is None:
+            return []
+        return [f"||T_zw|| of pair {k} = {v:.6g} > gamma = {self.gamma:.6g}"
+                for k, v in self.hinf.items() if not v <= self.gamma * (1 + self.hinf_rtol)]
+
+    @property
+    def status(self) -> str:
+        """``"violated"`` if an LMI, a pole or a vertex norm fails, else the LMI
+        certificate's status (``"certified"`` or ``"inconclusive"``)."""
+        if not self.lmi.ok or self.pole_failures or self.hinf_failures:
+            return "violated"
+        return self.lmi.status
+
+    @property
+    def ok(self) -> bool:
+        return self.status != "violated"
+
+    def worst_name(self) -> str:
+        if not self.lmi.ok:
+            return self.lmi.worst().name
+        if self.pole_failures:
+            return self.pole_failures[0].split(":")[0]
+        return "hinf"
+
+    def reason(self) -> str:
+        """One line: the worst failing LMI (name, eigenvalue), pole or norm."""
+        if not self.lmi.ok:
+            w = self.lmi.worst()
+            what = {"neg": "largest eigenvalue", "pos": "smallest eigenvalue",
+                    "nonneg": "smallest entry"}[w.kind]
+            val = -w.margin if w.kind == "neg" else w.margin
+            return f"LMI {w.name!r}: {what} = {val:.4g}"
+        if self.pole_failures:
+            return self.pole_failures[0]
+        if self.hinf_failures:
+            return self.hinf_failures[0]
+        return f"{self.status} (min relative margin {self.lmi.min_relative_margin:.3e})"
+
+    @property
+    def max_pole_real(self) -> float:
+        return float(np.nanmax(self.poles.real))
+
+
+def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | None = None,
+                     min_relative_margin: float = MIN_RELATIVE_MARGIN,
+                     max_condition: float = MAX_CONDITION) -> ObserverCertificate:
+    """Certify gains ``L`` (r, n, p) and Lyapunov matrix ``P`` (n, n) for the design
+    ``synthesis`` (an :class:`~vehicle_observers.design.synthesis.ObserverSynthesis`: its
+    system's arrays, gain structure and constraints), from the data alone (module docstring).
+
+    ``gamma`` / ``c``: the values of a bounded-real / input-to-state bound (needed when the
+    constraint left them free). ``min_relative_margin``, ``max_condition``: the thresholds of
+    "inconclusive" (defaults :data:`~vehicle_observers.design.lmi.MIN_RELATIVE_MARGIN`,
+    :data:`~vehicle_observers.design.lmi.MAX_CONDITION`)."""
+    s = synthesis.system
+    P = np.asarray(P, dtype=float)
+    L = np.asarray(L, dtype=float)
+    if P.shape != (s.n, s.n) or L.shape != (synthesis.n_gains, s.n, s.p):
+        raise ObserverArgumentError(f"certify_observer: P must be {s.n} x {s.n} and L "
+                                    f"({synthesis.n_gains}, {s.n}, {s.p}); got {P.shape}, "
+                                    f"{L.shape}")
+    K = P[None] @ L
+    checks: list[ConstraintCheck] = []
+    I = np.eye(s.n)
+    if synthesis.P_lower is not None:
+        checks.append(check_matrix(synthesis.lower_name, P - synthesis.P_lower * I, "pos"))
+    else:
+        checks.append(check_matrix("P > 0", P, "pos"))
+    if synthesis.P_upper is not None:
+        checks.append(check_matrix(synthesis.upper_name, synthesis.P_upper * I - P, "pos"))
+    if synthesis.P_lower is not None:           # P itself: its conditioning decides too
+        checks.append(check_matrix("P > 0 (conditioning)", P, "pos"))
+    Ps = (P + P.T) / 2
+    for con in synthesis.constraints:
+        if isinstance(con, Metzler):
+            continue
+        g = gamma if not isinstance(con, BoundedReal) or con.gamma is None else con.gamma
+        cv = c if not isinstance(con, InputToState) or con.c is None else con.c
+        if isinstance(con, BoundedReal) and g is None:
+            raise ObserverArgumentError("certify_observer: the bounded-real constraint needs "
+                                        "gamma")
+        if isinstance(con, InputToState) and cv is None:
+            raise ObserverArgumentError("certify_observer: the input-to-state constraint needs c")
+        all_pairs = sorted({(i, j) for _, combo in synthesis.terms for _, i, j in combo})
+        index = {p: k for k, p in enumerate(all_pairs)}
+        G = _stack_matrices(con, s, Ps, K, all_pairs, g, cv)
+        for suffix, combo in synthesis.terms:
+            M = sum(coef * G[index[(i, j)]] for coef, i, j in combo)
+            checks.append(check_matrix(f"{con.label}{suffix}", M, "neg"))
+        if isinstance(con, BoundedReal):
+            gamma = g
+    # poles of every constrained frozen pair
+    pairs = synthesis._pairs()
+    poles = np.full((s.q, synthesis.n_gains, s.n), np.nan + 0j)
+    fails = []
+    for i, j in pairs:
+        poles[i, j] = np.linalg.eigvals(s.A[i] - L[j] @ s.C[i])
+    for con in synthesis.constraints:
+        for i, j in pairs:
+            ev = poles[i, j]
+            tag = f"pair ({i + 1},{j + 1})"
+            if isinstance(con, Decay):
+                bad = (np.abs(ev) >= np.exp(-con.alpha * s.dt)) if s.discrete else \
+                    (ev.real >= -con.alpha)
+                if bad.any():
+                    fails.append(f"{con.label}{tag}: pole {ev[np.argmax(bad)]:.4g} of A_i - L_j C_i "
+                                 f"violates the decay rate {con.alpha:g}")
+            elif isinstance(con, InRegion):
+                inside = con.region.contains(ev)
+                if not inside.all():
+                    fails.append(f"{con.label}{tag}: pole {ev[np.argmin(inside)]:.4g} of "
+                                 f"A_i - L_j C_i lies outside {con.region.name!r}")
+            elif isinstance(con, Metzler):
+                M = s.A[i] - L[j] @ s.C[i]
+                off = M[~np.eye(s.n, dtype=bool)]
+                m = float(off.min()) if off.size else 0.0
+                checks.append(ConstraintCheck(f"{con.label}[{i + 1},{j + 1}]", "nonneg", m,
+                                              m / max(float(np.abs(M).max()), 1e-300), 0.0,
+                                              off.size))
+                if con.diag_shift is not None:
+                    dm = float((np.diag(M) + con.diag_shift).min())
+                    checks.append(ConstraintCheck(f"{con.label} diag[{i + 1},{j + 1}]",
+                                                  "nonneg", dm, dm / max(con.diag_shift, 1e-300),
+                                                  0.0, s.n))
+    stable = (np.abs(poles[~np.isnan(poles.real)]) < 1) if s.discrete else \
+        (poles[~np.isnan(poles.real)].real < 0)
+    if not stable.all():
+        fails.append("stability: a frozen error system A_i - L_j C_i is not stable")
+    hinf = {}
+    if gamma is not None and any(isinstance(x, BoundedReal) for x in synthesis.constraints):
+        for i, j in pairs:
+            Acl, Bcl, Ccl, Dcl = s.error_system(i, L[j])
+            hinf[(i + 1, j + 1)] = hinf_norm(Acl, Bcl, Ccl, Dcl, discrete=s.discrete)
+    cert = Certificate(checks, min_relative_margin, max_condition)
+    return ObserverCertificate(cert, poles, fails, hinf,
+                               gamma if any(isinstance(x, BoundedReal)
+                                            for x in synthesis.constraints) else None)

@@ -1,0 +1,125 @@
+"""The constraints and objectives of an observer LMI design, as data.
+
+Each class below names one requirement on the estimation error ``e = x - xhat`` of the
+observer ``xhat' = A xhat + B u + L (y - C xhat)`` of a polytopic system
+(:class:`~vehicle_observers.design.system.PolytopicSystem`). At a vertex pair ``(i, j)``
+(plant vertex ``i``, gain ``L_j``) the error obeys ``e' = (A_i - L_j C_i) e + (E_i - L_j D_i) w``,
+``z = H e``. With the Lyapunov matrix ``P`` and the change of variables ``K_j = P L_j`` every
+requirement is an LMI in ``(P, K_j, gamma, c)``; ``He(X) = X + X^T``:
+
+==================  ==============================================================================
+:class:`Decay`      continuous: ``He(P A_i - K_j C_i) + 2 alpha P < 0`` (poles ``Re < -alpha``);
+                    discrete: the disk ``|z| < exp(-alpha dt)`` of :class:`InRegion`
+:class:`InRegion`   Chilali & Gahinet (1996) Thm 2.2: ``L (x) P + M (x) (P A_i - K_j C_i) +
+                    M^T (x) (P A_i - K_j C_i)^T < 0``
+:class:`BoundedReal` bounded-real lemma, ``||T_{w->z}||_inf < gamma`` (continuous)
+                    ``[[He(P A_i - K_j C_i), P E_i - K_j D_i, H^T], [*, -gamma I, 0],
+                    [H, 0, -gamma I]] < 0``; discrete ``[[-P, P A - K C, P E - K D, 0],
+                    [*, -P, 0, H^T], [*, 0, -gamma I, 0], [0, H, 0, -gamma I]] < 0``
+:class:`InputToState` ``[[A_i^T P + P A_i - K_j C_i - C_i^T K_j^T + alpha P, P E_i],
+                    [E_i^T P, -c I]] < 0``: ``V' <= -alpha V + c |w|^2`` (Yacine 2015 (33))
+:class:`Metzler`    ``P`` diagonal and every off-diagonal entry of ``P A_i - K_j C_i`` >= 0 (the
+                    error system is cooperative: interval observers, Raissi et al. 2012);
+                    optionally ``diag(P A_i - K_j C_i + shift P) >= 0``
+==================  ==============================================================================
+
+A value ``None`` for ``gamma`` / ``c`` makes it a decision variable (minimised by
+:meth:`~vehicle_observers.design.synthesis.ObserverSynthesis.minimise`). ``label`` names the
+LMI in certificates (``label[i]`` or ``label[i,j]``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehicle_observers.core.errors import ObserverArgumentError
+from vehicle_observers.design.lmi import Region
+
+
+def _num(who, name, v, lo=None, strict=False, allow_none=False):
+    if v is None and allow_none:
+        return None
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        raise ObserverArgumentError(f"{who}: {name} must be a number, got {v!r}") from None
+    if not np.isfinite(v) or (lo is not None and (v <= lo if strict else v < lo)):
+        raise ObserverArgumentError(f"{who}: {name} must be finite and "
+                                    f"{'>' if strict else '>='} {lo}, got {v!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Decay:
+    """Decay rate ``alpha`` [1/s] >= 0 of every frozen error system (module table)."""
+
+    alpha: float = 0.0
+    label: str = "decay"
+
+    def __post_init__(self):
+        object.__setattr__(self, "alpha", _num("Decay", "alpha", self.alpha, lo=0.0))
+
+
+@dataclass(frozen=True)
+class InRegion:
+    """Poles of every frozen error system inside the LMI region ``region``."""
+
+    region: Region
+    label: str | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.region, Region):
+            raise ObserverArgumentError(f"InRegion: region must be a lmi.Region, got "
+                                        f"{type(self.region).__name__}")
+        if self.label is None:
+            object.__setattr__(self, "label", f"region {self.region.name}")
+
+
+@dataclass(frozen=True)
+class BoundedReal:
+    """``||T_{w -> H e}||_inf < gamma``; ``gamma=None``: a variable (minimised)."""
+
+    gamma: float | None = None
+    label: str = "hinf"
+
+    def __post_init__(self):
+        object.__setattr__(self, "gamma", _num("BoundedReal", "gamma", self.gamma, lo=0.0,
+                                               strict=True, allow_none=True))
+
+
+@dataclass(frozen=True)
+class InputToState:
+    """``V' <= -alpha V + c |w|^2`` (Yacine 2015 (33)); ``c=None``: a variable."""
+
+    alpha: float = 0.0
+    c: float | None = None
+    label: str = "iss"
+
+    def __post_init__(self):
+        object.__setattr__(self, "alpha", _num("InputToState", "alpha", self.alpha, lo=0.0))
+        object.__setattr__(self, "c", _num("InputToState", "c", self.c, lo=0.0, strict=True,
+                                           allow_none=True))
+
+
+@dataclass(frozen=True)
+class Metzler:
+    """Cooperative error system: off-diagonal of ``A_i - L_j C_i`` >= 0 (``P`` diagonal).
+
+    ``margin``: the solver must reach off-diagonal entries of ``P A_i - K_j C_i`` >= margin
+    (so its round-off cannot fail the certificate, which checks >= 0); ``diag_shift`` s:
+    also ``diag(P A_i - K_j C_i + s P) >= 0`` (diagonal of ``A - L C`` >= -s, the explicit
+    Euler step bound ``h s <= 1`` of a sampled interval observer)."""
+
+    margin: float = 0.0
+    diag_shift: float | None = None
+    label: str = "metzler"
+
+    def __post_init__(self):
+        object.__setattr__(self, "margin", _num("Metzler", "margin", self.margin, lo=0.0))
+        object.__setattr__(self, "diag_shift", _num("Metzler", "diag_shift", self.diag_shift,
+                                                    lo=0.0, strict=True, allow_none=True))
+
+
+CONSTRAINTS = (Decay, InRegion, BoundedReal, InputToState, Metzler)

@@ -1,0 +1,554 @@
+"""Observer synthesis on a polytopic / TS system: gain structure + constraints -> LMIs ->
+solve -> certificate rebuilt from the data.
+
+Observer ``xhat' = A(h) xhat + B(h) u + L(h) (y - C(h) xhat)`` for the system of
+:class:`~vehicle_observers.design.system.PolytopicSystem`. Gain structures (``gains``):
+
+``"common"``
+    one gain ``L`` for every vertex: the LMIs of every constraint at each vertex ``i``
+    (named ``label[i]``).
+``"pdc"``
+    parallel distributed compensation, one gain ``L_i`` per vertex blended with the plant's
+    memberships: ``e' = sum_i sum_j h_i h_j (A_i - L_j C_i) e``. With a common ``C`` the double
+    sum is a single one and the LMIs are ``G_ii < 0`` (``label[i]``). With vertex-dependent
+    ``C_i`` a relaxation of the double sum is needed (``relaxation``):
+    ``"tanaka"`` (Tanaka, Ikeda & Wang, IEEE TFS 6(2), 1998, Thm 2 without the ``X`` slack):
+    ``G_ii < 0``, ``G_ij + G_ji < 0`` (i < j); ``"tuan"`` (Tuan, Apkarian, Narikiyo & Yamamoto,
+    IEEE TFS 9(2), 2001, Thm 2.2): ``G_ii < 0``, ``2/(q-1) G_ii + G_ij + G_ji < 0`` (i != j).
+``"pairs"``
+    ``n_gains`` gains scheduled by memberships unrelated to the plant's (e.g. estimated
+    premises): every pair ``(i, j)``, ``label[i,j]`` (Ichalal 2011 (23)).
+
+``G_ij`` is any constraint's matrix at the pair (:mod:`vehicle_observers.design.constraints`);
+every constraint matrix is affine in the closed-loop data, so the relaxations apply to each.
+The Lyapunov matrix ``P`` is common (``P="symmetric"``) or diagonal (``P="diagonal"``, needed
+by :class:`~vehicle_observers.design.constraints.Metzler`).
+
+The LMIs are posed with :class:`~vehicle_observers.design.lmi.LMIDesign` (builders generated
+here from the vertex arrays), solved by Clarabel, and every returned design is then certified by
+:func:`vehicle_observers.design.certify.certify_observer`, which rebuilds each LMI in numpy from
+the system's arrays, the gains ``L_j`` and ``P`` only (not from these builders), adds the poles
+of every frozen error system and, with a bounded-real constraint, each vertex's H-infinity norm
+by Hamiltonian bisection.
+
+Optimise, back off, certify (:meth:`ObserverSynthesis.maximise_decay`,
+:meth:`ObserverSynthesis.minimise`): the optimum of a homogeneous LMI problem sits on the
+boundary of the feasible set, where the certificate is at round-off level ("inconclusive").
+The optimum is found first (bisection on ``alpha``, a generalised eigenvalue problem; or
+``min gamma``), then the requirement is backed off by a stated fraction (``alpha (1 - b)``,
+``gamma (1 + b)``) and the feasibility problem re-solved: the returned design has a real
+margin, and the result carries the optimum, the certified design and the margin.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
+from vehicle_observers.design.constraints import (
+    CONSTRAINTS,
+    BoundedReal,
+    Decay,
+    InputToState,
+    InRegion,
+    Metzler,
+)
+from vehicle_observers.design.lmi import (
+    MAX_CONDITION,
+    MIN_RELATIVE_MARGIN,
+    LMIDesign,
+    LMISolution,
+    bmat,
+    disk,
+)
+from vehicle_observers.design.system import PolytopicSystem
+
+GAINS = ("common", "pdc", "pairs")
+RELAXATIONS = ("tanaka", "tuan")
+
+
+def terms(system: PolytopicSystem, gains: str, n_gains: int, relaxation: str):
+    """The LMIs of a gain structure: list of ``(suffix, [(coef, i, j), ...])``; each LMI is
+    ``sum coef G_ij < 0`` (0-based ``i`` vertex, ``j`` gain)."""
+    q = system.q
+    if gains == "common":
+        return [(f"[{i + 1}]", [(1.0, i, 0)]) for i in range(q)]
+    if gains == "pairs":
+        return [(f"[{i + 1},{j + 1}]", [(1.0, i, j)]) for i in range(q) for j in range(n_gains)]
+    if system.common_C or q == 1:
+        return [(f"[{i + 1}]", [(1.0, i, i)]) for i in range(q)]
+    out = [(f"[{i + 1},{i + 1}]", [(1.0, i, i)]) for i in range(q)]
+    if relaxation == "tanaka":
+        out += [(f"[{i + 1},{j + 1}]", [(1.0, i, j), (1.0, j, i)])
+                for i in range(q) for j in range(i + 1, q)]
+    else:
+        out += [(f"[{i + 1},{j + 1}]", [(2.0 / (q - 1), i, i), (1.0, i, j), (1.0, j, i)])
+                for i in range(q) for j in range(q) if i != j]
+    return out
+
+
+def decay_region(system: PolytopicSystem, c: Decay):
+    """The discrete-time decay requirement as the disk ``|z| < exp(-alpha dt)``."""
+    return disk(float(np.exp(-c.alpha * system.dt)))
+
+
+# ---- cvxpy / numpy builders of one constraint at one pair ----------------------------------
+def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V):
+    """Matrix of constraint ``c`` at vertex ``i`` with gain variable ``K = P L_j`` (cvxpy)."""
+    A, C, E, D, H = system.A[i], system.C[i], system.E[i], system.D[i], system.H
+    PA = P @ A - K @ C
+    if isinstance(c, Decay):
+        if system.discrete:
+            return decay_region(system, c).lmi(P, PA)
+        M = PA + PA.T
+        return M + 2.0 * c.alpha * P if c.alpha else M
+    if isinstance(c, InRegion):
+        return c.region.lmi(P, PA)
+    PE = P @ E - K @ D if np.any(D) else P @ E
+    if isinstance(c, BoundedReal):
+        g = V["gamma"] if c.gamma is None else c.gamma
+        nw, nz, n = E.shape[1], H.shape[0], A.shape[0]
+        Iw, Iz = np.eye(nw), np.eye(nz)
+        if system.discrete:
+            return bmat([[-P, PA, PE, np.zeros((n, nz))],
+                         [PA.T, -P, np.zeros((n, nw)), H.T],
+                         [PE.T, np.zeros((nw, n)), -g * Iw, np.zeros((nw, nz))],
+                         [np.zeros((nz, n)), H, np.zeros((nz, nw)), -g * Iz]])
+        return bmat([[PA + PA.T, PE, H.T], [PE.T, -g * Iw, np.zeros((nw, nz))],
+                     [H, np.zeros((nz, nw)), -g * Iz]])
+    if isinstance(c, InputToState):
+        cc = V["c"] if c.c is None else c.c
+        X = A.T @ P + P @ A - K @ C - C.T @ K.T
+        if c.alpha:
+            X = X + c.alpha * P
+        EP = E.T @ P if not np.any(D) else PE.T
+        return bmat([[X, PE], [EP, -cc * np.eye(E.shape[1])]])
+    raise TypeError(type(c))
+
+
+def _offdiag(X):
+    """Off-diagonal entries of ``X`` as a row (cvxpy or numpy)."""
+    n = X.shape[0]
+    if isinstance(X, np.ndarray):
+        return X[~np.eye(n, dtype=bool)][None]
+    import cvxpy as cp
+    return cp.reshape(cp.hstack([X[a, b] for a in range(n) for b in range(n) if a != b]),
+                      (1, n * (n - 1)), order="C")
+
+
+def _diag(X):
+    """Diagonal entries of ``X`` as a row (cvxpy or numpy)."""
+    n = X.shape[0]
+    if isinstance(X, np.ndarray):
+        return np.diag(X)[None]
+    import cvxpy as cp
+    return cp.reshape(cp.hstack([X[a, a] for a in range(n)]), (1, n), order="C")
+
+
+# ---- result objects -------------------------------------------------------------------------
+@dataclass
+class ObserverDesign:
+    """A solved observer design.
+
+    ``P`` (n, n); ``L`` (r, n, p) gains (r = 1 common, q PDC, ``n_gains`` pairs); ``gamma``,
+    ``c`` the values of the bounded-real / input-to-state bounds (``None`` if unused);
+    ``certificate`` (:class:`~vehicle_observers.design.certify.ObserverCertificate`) rebuilt
+    from the data; ``solution`` the solver's :class:`~vehicle_observers.design.lmi.LMISolution`
+    (with the certificate of the builders)."""
+
+    synthesis: "ObserverSynthesis"
+    P: np.ndarray
+    L: np.ndarray
+    gamma: float | None
+    c: float | None
+    certificate: object
+    solution: LMISolution
+
+    @property
+    def status(self) -> str:
+        return self.certificate.status
+
+    @property
+    def K(self) -> np.ndarray:
+        return np.array([self.P @ Lj for Lj in self.L])
+
+
+@dataclass
+class OptimisedDesign:
+    """Optimise -> back off -> certify.
+
+    ``optimum``: the best value found (largest ``alpha`` to ``tol`` by bisection, or smallest
+    ``gamma`` / ``c``); ``at_optimum``: the design solved at the optimum (its certificate is
+    usually "inconclusive": the optimum is on the boundary); ``backoff``: the fraction given up;
+    ``value``: the backed-off requirement of ``design``, the certified design;
+    ``margin``: its smallest relative LMI margin (from the data certificate)."""
+
+    quantity: str
+    optimum: float
+    value: float
+    backoff: float
+    design: ObserverDesign
+    at_optimum: ObserverDesign | None
+
+    @property
+    def margin(self) -> float:
+        return self.design.certificate.lmi.min_relative_margin
+
+    @property
+    def status(self) -> str:
+        return self.design.status
+
+
+class ObserverSynthesis:
+    """An observer LMI design on a :class:`PolytopicSystem` (module docstring).
+
+    Parameters
+    ----------
+    system : the vertex data.
+    constraints : sequence of :mod:`~vehicle_observers.design.constraints` objects (composed:
+        every one must hold at every pair).
+    gains : ``"common"``, ``"pdc"`` or ``"pairs"``; ``n_gains`` the number of gains of
+        ``"pairs"``.
+    relaxation : ``"tuan"`` (default) or ``"tanaka"``, for PDC with vertex-dependent ``C_i``.
+    P : ``"symmetric"`` or ``"diagonal"``.
+    P_lower, P_upper : ``P - P_lower I > 0`` (normalisation of the homogeneous LMIs; ``"auto"``:
+        1, or none (``P > 0``) with a bounded-real constraint, which is not homogeneous in
+        ``P`` so that a normalisation would restrict it) and ``P_upper I - P > 0``
+        (conditioning bound), ``None`` to omit.
+    gain_bound : entry-wise ``|K_j| <= gain_bound`` (solver side only).
+    eps : strictness imposed on the solver (``LMIDesign.eps``).
+    order : ``"vertex"`` (pairs outer, constraints inner) or ``"constraint"``: the order the
+        LMIs are posed in (the solution is the same up to the solver's round-off).
+    gain_name, names : names of the gain variables (``K0``, ``K1``, ...) and of the
+        normalisations in the certificates.
+    name : the design's name in every message.
+    """
+
+    def __init__(self, system: PolytopicSystem, constraints=(), gains: str = "common",
+                 n_gains: int | None = None, relaxation: str = "tuan", P: str = "symmetric",
+                 P_lower: float | None | str = "auto", P_upper: float | None = None,
+                 gain_bound: float | None = None, eps: float = 1e-7, order: str = "vertex",
+                 gain_name: str = "K", lower_name: str | None = None,
+                 upper_name: str | None = None, name: str = "observer design"):
+        who = f"ObserverSynthesis {name!r}"
+        if not isinstance(system, PolytopicSystem):
+            raise ObserverArgumentError(f"{who}: system must be a PolytopicSystem, got "
+                                        f"{type(system).__name__}")
+        cons = list(constraints)
+        for c in cons:
+            if not isinstance(c, CONSTRAINTS):
+                raise ObserverArgumentError(f"{who}: unknown constraint {c!r}; use one of "
+                                            f"{', '.join(k.__name__ for k in CONSTRAINTS)}")
+        if not cons:
+            cons = [Decay(0.0)]
+        if gains not in GAINS:
+            raise ObserverArgumentError(f"{who}: gains must be one of {GAINS}, got {gains!r}")
+        if relaxation not in RELAXATIONS:
+            raise ObserverArgumentError(f"{who}: relaxation must be one of {RELAXATIONS}, got "
+                                        f"{relaxation!r}")
+        if P not in ("symmetric", "diagonal"):
+            raise ObserverArgumentError(f"{who}: P must be 'symmetric' or 'diagonal', got {P!r}")
+        if any(isinstance(c, Metzler) for c in cons) and P != "diagonal":
+            raise ObserverArgumentError(f"{who}: a Metzler constraint needs P='diagonal' "
+                                        "(then P A - K C Metzler <=> A - L C Metzler)")
+        if order not in ("vertex", "constraint"):
+            raise ObserverArgumentError(f"{who}: order must be 'vertex' or 'constraint'")
+        if gains == "pairs":
+            if isinstance(n_gains, bool) or not isinstance(n_gains, (int, np.integer)) \
+                    or n_gains < 1:
+                raise ObserverArgumentError(f"{who}: gains='pairs' needs n_gains, a positive "
+                                            f"integer, got {n_gains!r}")
+        r = {"common": 1, "pdc": system.q, "pairs": n_gains}[gains]
+        if isinstance(P_lower, str):
+            if P_lower != "auto":
+                raise ObserverArgumentError(f"{who}: P_lower must be a number, None or 'auto'")
+            # the bounded-real LMI is not homogeneous in P (its -gamma I and H blocks fix the
+            # scale): a normalisation P >= I would restrict it; every other LMI is homogeneous
+            P_lower = None if any(isinstance(c, BoundedReal) for c in cons) else 1.0
+        for what, v in (("P_lower", P_lower), ("P_upper", P_upper), ("gain_bound", gain_bound)):
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise ObserverArgumentError(f"{who}: {what} must be finite and > 0 (or None), "
+                                            f"got {v!r}")
+        if P_lower is not None and P_upper is not None and P_upper <= P_lower:
+            raise ObserverArgumentError(f"{who}: P_upper must exceed P_lower")
+        if sum(isinstance(c, BoundedReal) for c in cons) > 1 or \
+                sum(isinstance(c, InputToState) for c in cons) > 1:
+            raise ObserverArgumentError(f"{who}: at most one BoundedReal and one InputToState")
+        if any(isinstance(c, (BoundedReal, InputToState)) for c in cons) and system.nw == 0:
+            raise ObserverArgumentError(f"{who}: a bounded-real / input-to-state constraint "
+                                        "needs a disturbance matrix E in the system")
+        self.system, self.constraints, self.gains, self.n_gains = system, cons, gains, r
+        self.relaxation, self.P_kind, self.P_lower, self.P_upper = relaxation, P, P_lower, P_upper
+        self.gain_bound, self.eps, self.order, self.name = gain_bound, eps, order, name
+        self.gain_name = gain_name
+        self.lower_name = lower_name or "P - P_lower I > 0"
+        self.upper_name = upper_name or "P_upper I - P > 0"
+        self.terms = terms(system, gains, r, relaxation)
+
+    def replace(self, **kw) -> "ObserverSynthesis":
+        """A copy with some arguments changed (e.g. ``constraints=[...]``)."""
+        args = dict(system=self.system, constraints=self.constraints, gains=self.gains,
+                    n_gains=self.n_gains if self.gains == "pairs" else None,
+                    relaxation=self.relaxation, P=self.P_kind, P_lower=self.P_lower,
+                    P_upper=self.P_upper, gain_bound=self.gain_bound, eps=self.eps,
+                    order=self.order, gain_name=self.gain_name, lower_name=self.lower_name,
+                    upper_name=self.upper_name, name=self.name)
+        args.update(kw)
+        return ObserverSynthesis(**args)
+
+    # ---- the LMIs -------------------------------------------------------------------------
+    def lmi_design(self) -> LMIDesign:
+        """The :class:`LMIDesign` of this synthesis (variables ``P``, ``K0..``, ``gamma``,
+        ``c``; constraints named ``label[i]`` / ``label[i,j]``)."""
+        s, n, p, eps = self.system, self.system.n, self.system.p, self.eps
+        d = LMIDesign(self.name, eps=eps)
+        (d.diagonal if self.P_kind == "diagonal" else d.symmetric)("P", n)
+        gn = [f"{self.gain_name}{j}" for j in range(self.n_gains)]
+        for g in gn:
+            d.matrix(g, (n, p))
+        if any(isinstance(c, InputToState) and c.c is None for c in self.constraints):
+            d.scalar("c")
+        if any(isinstance(c, BoundedReal) and c.gamma is None for c in self.constraints):
+            d.scalar("gamma")
+        I = np.eye(n)
+        if self.P_lower is not None:
+            pl = self.P_lower
+            d.positive(self.lower_name, lambda V: V.P - pl * I)
+        else:
+            d.positive("P > 0", lambda V: V.P)
+        if self.P_upper is not None:
+            pu = self.P_upper
+            d.positive(self.upper_name, lambda V: pu * I - V.P)
+        lmis = [c for c in self.constraints if not isinstance(c, Metzler)]
+        items = ([(c, t) for t in self.terms for c in lmis] if self.order == "vertex"
+                 else [(c, t) for c in lmis for t in self.terms])
+        for c, (suffix, combo) in items:
+            def build(V, c=c, combo=combo):
+                M = None
+                for coef, i, j in combo:
+                    G = pair_matrix(c, s, V.P, V[gn[j]], i, V)
+                    G = G if coef == 1.0 else coef * G
+                    M = G if M is None else M + G
+                return M
+            d.negative(f"{c.label}{suffix}", build)
+        for c in self.constraints:
+            if not isinstance(c, Metzler):
+                continue
+            for i, j in self._pairs():
+                suffix = f"[{i + 1}]" if self.gains == "common" else f"[{i + 1},{j + 1}]"
+                d.nonnegative(f"{c.label}{suffix}",
+                              lambda V, i=i, j=j: _offdiag(V.P @ s.A[i] - V[gn[j]] @ s.C[i]),
+                              margin=c.margin)
+                if c.diag_shift is not None:
+                    sh = c.diag_shift
+                    d.nonnegative(f"{c.label} diag{suffix}",
+                                  lambda V, i=i, j=j, sh=sh: _diag(
+                                      V.P @ s.A[i] - V[gn[j]] @ s.C[i] + sh * V.P))
+        if self.gain_bound is not None:
+            import cvxpy as cp
+            kb = self.gain_bound
+            d.extra(lambda V: [cp.abs(V[g]) <= kb for g in gn])
+        return d
+
+    def _pairs(self):
+        """Every frozen vertex pair ``(i, j)`` whose error system the LMIs constrain."""
+        if self.gains == "common":
+            return [(i, 0) for i in range(self.system.q)]
+        if self.gains == "pairs":
+            return [(i, j) for i in range(self.system.q) for j in range(self.n_gains)]
+        return [(i, i) for i in range(self.system.q)]
+
+    # ---- solve ----------------------------------------------------------------------------
+    def solve(self, objective: str | None = None, min_relative_margin: float = MIN_RELATIVE_MARGIN,
+              max_condition: float = MAX_CONDITION, raise_on_violation: bool = True
+              ) -> ObserverDesign:
+        """Solve (``objective``: ``None`` feasibility, ``"gamma"`` or ``"c"`` minimised) and
+        certify from the data (:func:`~vehicle_observers.design.certify.certify_observer`,
+        thresholds per call).
+
+        Raises :class:`InfeasibleDesign` naming the LMIs when the solver finds no point, and
+        :class:`CertificationError` naming the LMI and the vertex when the data certificate
+        says "violated" (unless ``raise_on_violation=False``)."""
+        from vehicle_observers.design.certify import certify_observer
+
+        if objective not in (None, "gamma", "c"):
+            raise ObserverArgumentError(f"{self.name}: objective must be None, 'gamma' or 'c', "
+                                        f"got {objective!r}")
+        d = self.lmi_design()
+        if objective is not None and objective not in d._vars:
+            raise ObserverArgumentError(f"{self.name}: objective {objective!r} is not a "
+                                        "variable of this design (give BoundedReal(gamma=None) "
+                                        "or InputToState(c=None))")
+        obj = None if objective is None else (lambda V: V[objective])
+        sol = d.solve(objective=obj, raise_on_failure=raise_on_violation,
+                      min_relative_margin=min_relative_margin, max_condition=max_condition)
+        P = sol["P"]
+        L = np.array([np.linalg.solve(P, sol[f"{self.gain_name}{j}"])
+                      for j in range(self.n_gains)])
+        gamma = self._value(sol, BoundedReal, "gamma")
+        c = self._value(sol, InputToState, "c")
+        cert = certify_observer(self, P, L, gamma=gamma, c=c,
+                                min_relative_margin=min_relative_margin,
+                                max_condition=max_condition)
+        des = ObserverDesign(self, P, L, gamma, c, cert, sol)
+        if raise_on_violation and cert.status == "violated":
+            w = cert.reason()
+            raise CertificationError(f"{self.name}: the data certificate rejects the solution: "
+                                     f"{w} (solver status {sol.status!r})",
+                                     lmi=cert.worst_name(), status=sol.status)
+        return des
+
+    def _value(self, sol, kind, var):
+        for c in self.constraints:
+            if isinstance(c, kind):
+                v = getattr(c, var)
+                return float(sol[var]) if v is None else float(v)
+        return None
+
+    # ---- optimise -> back off -> certify -------------------------------------------------
+    def _with(self, old, new) -> "ObserverSynthesis":
+        return self.replace(constraints=[new if c is old else c for c in self.constraints])
+
+    def _feasible(self, syn, **kw):
+        try:
+            return syn.solve(**kw)
+        except InfeasibleDesign:
+            return None
+
+    def maximise_decay(self, hi: float, lo: float = 0.0, tol: float = 1e-3,
+                       backoff: float = 0.05, **kw) -> OptimisedDesign:
+        """Largest decay rate ``alpha`` of the (single) :class:`Decay` or
+        :class:`InputToState` constraint, by bisection on ``[lo, hi]`` to relative/absolute
+        ``tol`` (``He(P A - K C) + 2 alpha P < 0`` is a generalised eigenvalue problem:
+        feasibility is monotone in ``alpha``), then the design at ``alpha (1 - backoff)``
+        (certified with a real margin). ``kw``: thresholds of :meth:`solve`."""
+        who = f"{self.name}: maximise_decay"
+        tgt = [c for c in self.constraints if isinstance(c, (Decay, InputToState))]
+        if len(tgt) != 1:
+            raise ObserverArgumentError(f"{who}: needs exactly one Decay or InputToState "
+                                        "constraint to vary")
+        if not (0 <= lo < hi and np.isfinite(hi)):
+            raise ObserverArgumentError(f"{who}: need 0 <= lo < hi < inf, got [{lo}, {hi}]")
+        _backoff_ok(who, backoff)
+        c0 = tgt[0]
+
+        def at(a):
+            return self._with(c0, dataclasses.replace(c0, alpha=a))
+
+        best = self._feasible(at(lo), raise_on_violation=False, **kw)
+        if best is None or best.status == "violated":
+            raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}",
+                                   lmi=c0.label)
+        a_lo, a_hi = lo, hi
+        top = self._feasible(at(hi), raise_on_violation=False, **kw)
+        if top is not None and top.status != "violated":
+            a_lo, best = hi, top
+        while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
+            mid = 0.5 * (a_lo + a_hi)
+            des = self._feasible(at(mid), raise_on_violation=False, **kw)
+            if des is not None and des.status != "violated":
+                a_lo, best = mid, des
+            else:
+                a_hi = mid
+        value = a_lo * (1.0 - backoff)
+        design = at(value).solve(**kw)
+        return OptimisedDesign("alpha", a_lo, value, backoff, design, best)
+
+    def minimise(self, backoff: float = 0.05, **kw) -> OptimisedDesign:
+        """Smallest ``gamma`` (:class:`BoundedReal` with ``gamma=None``) or ``c``
+        (:class:`InputToState` with ``c=None``), then the design re-solved with the bound
+        fixed at ``optimum (1 + backoff)`` (a feasibility problem whose solution has a real
+        margin)."""
+        who = f"{self.name}: minimise"
+        _backoff_ok(who, backoff)
+        free = [c for c in self.constraints
+                if (isinstance(c, BoundedReal) and c.gamma is None)
+                or (isinstance(c, InputToState) and c.c is None)]
+        if len(free) != 1:
+            raise ObserverArgumentError(f"{who}: needs exactly one free gamma or c")
+        c0 = free[0]
+        var = "gamma" if isinstance(c0, BoundedReal) else "c"
+        opt = self.solve(objective=var, raise_on_violation=False, **kw)
+        optimum = opt.gamma if var == "gamma" else opt.c
+        value = optimum * (1.0 + backoff)
+        design = self._with(c0, dataclasses.replace(c0, **{var: value})).solve(**kw)
+        return OptimisedDesign(var, optimum, value, backoff, design, opt)
+
+
+def _backoff_ok(who, b):
+    if not (np.ndim(b) == 0 and np.isfinite(b) and 0 <= b < 1):
+        raise ObserverArgumentError(f"{who}: backoff must be a fraction in [0, 1), got {b!r}")
+
+
+def design_observer(system: PolytopicSystem, constraints=(), objective: str | None = None,
+                    **kw) -> ObserverDesign:
+    """One call: ``ObserverSynthesis(system, constraints, **kw).solve(objective)``."""
+    solve_kw = {k: kw.pop(k) for k in ("min_relative_margin", "max_condition",
+                                       "raise_on_violation") if k in kw}
+    return ObserverSynthesis(system, constraints, **kw).solve(objective, **solve_kw)
+
+
+def timed_solve(syn: ObserverSynthesis, **kw) -> tuple[ObserverDesign, float, float]:
+    """``(design, solver seconds, total seconds)`` of one :meth:`ObserverSynthesis.solve`
+    (the speed bench's ratio total / solver)."""
+    t0 = time.perf_counter()
+    des = syn.solve(**kw)
+    return des, des.solution.solve_time, time.perf_counter() - t0
+
+
+def decay_disk_map(system: PolytopicSystem, alphas, radii, eps: float = 1e-7,
+                   P_lower: float = 1.0, **thresholds) -> dict:
+    """Feasibility map of ``Decay(alpha) + InRegion(disk(R))`` (common gain, continuous time)
+    on the grid ``alphas x radii``, the problem built **once** with cvxpy Parameters
+    ``alpha``, ``R`` (DPP: cvxpy canonicalises it once and only re-fills the solver's data):
+
+        P - P_lower I > eps I,   He(P A_i - K C_i) + 2 alpha P < -eps I,
+        [[-R P, P A_i - K C_i], [(P A_i - K C_i)^T, -R P]] < -eps I     (i = 1..q).
+
+    Every solved point is certified from the data by :func:`certify_observer` (the LMIs
+    rebuilt in numpy from ``A_i, C_i``, ``L = P^-1 K``, ``P``). Returns ``{"alpha", "R",
+    "status" (na, nR) str ("infeasible" where the solver found no point), "solver_s"
+    (Clarabel's own time, summed), "total_s"}``."""
+    import cvxpy as cp
+
+    from vehicle_observers.design.certify import certify_observer
+
+    if system.discrete:
+        raise ObserverArgumentError("decay_disk_map: continuous-time systems only")
+    t_start = time.perf_counter()
+    n, p = system.n, system.p
+    a_par, r_par = cp.Parameter(nonneg=True), cp.Parameter(nonneg=True)
+    P = cp.Variable((n, n), symmetric=True)
+    K = cp.Variable((n, p))
+    I = np.eye(n)
+    cons = [P - P_lower * I >> eps * I]
+    for i in range(system.q):
+        PA = P @ system.A[i] - K @ system.C[i]
+        cons.append(PA + PA.T + 2 * a_par * P << -eps * I)
+        D = cp.bmat([[-r_par * P, PA], [PA.T, -r_par * P]])
+        cons.append((D + D.T) / 2 << -eps * np.eye(2 * n))
+    prob = cp.Problem(cp.Minimize(0), cons)
+    alphas, radii = np.asarray(alphas, float), np.asarray(radii, float)
+    status = np.full((len(alphas), len(radii)), "infeasible", dtype=object)
+    solver = 0.0
+    for ia, a in enumerate(alphas):
+        for ir, R in enumerate(radii):
+            a_par.value, r_par.value = float(a), float(R)
+            try:
+                prob.solve(solver="CLARABEL")
+            except cp.error.SolverError:
+                continue
+            solver += float(prob.solver_stats.solve_time or 0.0)
+            if P.value is None or prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+                continue
+            syn = ObserverSynthesis(system, [Decay(float(a)), InRegion(disk(float(R)))],
+                                    P_lower=P_lower, eps=eps)
+            Pv = np.array(P.value)
+            L = np.linalg.solve(Pv, np.array(K.value))[None]
+            status[ia, ir] = certify_observer(syn, Pv, L, **thresholds).status
+    return {"alpha": alphas, "R": radii, "status": status, "solver_s": solver,
+            "total_s": time.perf_counter() - t_start}
