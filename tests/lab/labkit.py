@@ -423,7 +423,7 @@ def run_in_lab(context, lab: Lab, name: str, figures_dir: Path, shots: Path,
     import re
     import shutil
 
-    shutil.rmtree(figures_dir / pipeline.section_of(name), ignore_errors=True)  # none left from an earlier run
+    shutil.rmtree(figures_dir / pipeline.section_of(name), ignore_errors=True)  # none left from before
     t0 = time.monotonic()
     page = context.new_page()
     page.set_default_timeout(120_000)
