@@ -7,7 +7,8 @@ one input (so a hard-coded number fails) and shows one line through
 ``not attempted`` while the stub still returns ``...``).
 
 1. one step of Levant's differentiator (HOSMD, n = 3) against the compiled library loop;
-2. the sector bounds (17) of the premise ``f_i = F_i^S(alpha_i) / alpha_i`` (16) of a tyre;
+2. the lateral forces from the transformed state (12) (the paper's (46)), derived by solving
+   the two lines of (12);
 3. a decay-rate LMI (the core of (33), one vertex, no premise error) solved with cvxpy and
    certified by eigenvalues;
 4. the time after which the bound (45) falls below ``||e(0)||``, closed form against the
@@ -25,7 +26,6 @@ from vehicle_observers.results.teaching import check
 
 from vehicle_observers_papers.yacine_2015 import constants as Y
 from vehicle_observers_papers.yacine_2015 import theorem1 as T1
-from vehicle_observers_papers.yacine_2015.premise_estimation import mismatched_params
 
 _EMPTY = (None, Ellipsis)
 
@@ -64,28 +64,59 @@ def check_1(levant_step, show: bool = True):
                       "all v_i computed from the old z before any z_i changes")
 
 
-def check_2(sector, show: bool = True):
-    """Exercise 02.2: ``sector(tire, alpha_max)`` -> ``(f_min, f_max)`` [N/rad] of the secant
-    stiffness ``F(alpha)/alpha`` (16) over ``|alpha| <= alpha_max`` [rad]. Three cases: the
-    paper's front and rear tyres at 8 deg (the answer is the printed sector (17)) and the
-    mismatched front tyre of section 7 at 5 deg; expected from ``Pacejka.sector_bounds``."""
-    mm = mismatched_params()
-    cases = {"front, 8 deg": (Y.tire_f, np.radians(8.0)), "rear, 8 deg": (Y.tire_r, np.radians(8.0)),
-             "mismatched front, 5 deg": (mm.tire_f, np.radians(5.0))}
+#: transformed states ``(x3 [m/s^2], x4 [rad/s^2])`` the checker of exercise 2 tries: a left
+#: turn (both forces positive), a pure yaw moment (x3 = 0) and a braking-like mix
+X34_2 = ((2.0, 0.5), (0.0, 1.0), (-3.0, 2.0))
+
+
+def expected_2(x3, x4, p=None) -> tuple[float, float]:
+    """``(F_f, F_r)`` [N] solving the two lines of (12), ``x3 = (F_f + F_r)/m`` and
+    ``x4 = (l_f F_f - l_r F_r)/I_z``, as a linear system (``numpy.linalg.solve``), not the closed
+    form (46) the library uses."""
+    p = Y.params if p is None else p
+    M = np.array([[1 / p.m, 1 / p.m], [p.a_f / p.I_z, -p.a_r / p.I_z]])
+    return tuple(float(v) for v in np.linalg.solve(M, [x3, x4]))
+
+
+def check_2(forces, show: bool = True):
+    """Exercise 02.2: ``forces(x3, x4)`` -> ``(F_f, F_r)`` [N]: the lateral forces of the paper's
+    car recovered from the transformed state (12) (the observer estimates ``x3, x4``, the paper
+    plots forces: its (46)). Three states :data:`X34_2`; the hint names the force that is off,
+    by how many newtons, and the usual cause (the two forces swapped, a sign of the yaw-moment
+    term)."""
+    want = {f"(x3, x4) = {x}": np.array(expected_2(*x)) for x in X34_2}
+    got = {}
 
     def answer():
-        out = {}
-        for k, (tire, amax) in cases.items():
-            got = sector(tire, amax)
-            if got is None or got is Ellipsis:
+        for x in X34_2:
+            out = forces(*x)
+            if out is None or out is Ellipsis or any(o is None or o is Ellipsis for o in out):
                 return None
-            out[k] = np.asarray(got, dtype=float)
-        return out
+            got[f"(x3, x4) = {x}"] = np.asarray(out, dtype=float).ravel()
+        return dict(got)
 
-    expected = {k: np.array(tire.sector_bounds(amax)) for k, (tire, amax) in cases.items()}
-    return check("02.2", answer, expected, rtol=1e-4, show=show,
-                 hint="f(alpha) = tire.force(alpha) / alpha on a grid of |alpha| <= alpha_max that "
-                      "avoids alpha = 0 (its limit there is B C D, the largest value); return (min, max)")
+    hint = ("write the two lines of (12) as a 2 x 2 linear system in (F_f, F_r) and solve it "
+            "(by hand: add l_r times the first to the second)")
+    try:
+        probe = answer()
+    except Exception:   # the student's code: reported by check below
+        probe = None
+    if probe:
+        for k, w in want.items():
+            g = probe[k]
+            if g.shape != (2,):
+                hint = f"return two numbers (F_f, F_r) in N, got {g.size}"
+                break
+            if not np.allclose(g, w, rtol=1e-9, atol=1e-6):
+                i = int(np.argmax(np.abs(g - w)))
+                name = ("F_f", "F_r")[i]
+                hint = f"at {k}: {name} is {g[i]:.1f} N, expected {w[i]:.1f} N (off by {g[i] - w[i]:+.1f} N)"
+                if np.allclose(g[::-1], w, rtol=1e-9, atol=1e-6):
+                    hint += "; the two forces are swapped"
+                elif np.allclose(g.sum(), w.sum(), rtol=1e-9, atol=1e-6):
+                    hint += "; their sum m x3 is right, so the yaw-moment line l_f F_f - l_r F_r = I_z x4 is not"
+                break
+    return check("02.2", answer, want, rtol=1e-9, atol=1e-6, show=show, hint=hint)
 
 
 #: the systems of exercise 3: (name, A, C, alpha)
