@@ -84,3 +84,12 @@ def test_forces_hint_says_which_force_and_by_how_many_newtons():
     assert out.status == WRONG and " N" in out.message and "yaw-moment" in out.message
     Ff, Fr = ex.expected_2(2.0, 0.5)
     assert Ff + Fr == pytest.approx(1500 * 2.0) and 1.1 * Ff - 1.44 * Fr == pytest.approx(2454 * 0.5)
+
+
+def test_levant_hint_recognises_plain_euler():
+    """A step without the Taylor terms is diagnosed as plain explicit Euler, with the derivative
+    estimate and the sample where it leaves the library's loop (catches a hint that gives the
+    code instead of a diagnosis, or none)."""
+    out = ex.check_1(plain_euler_step, show=False)
+    assert out.status == WRONG and "plain explicit Euler" in out.message and "sample" in out.message
+    assert "tau**" not in out.message and "z_i +=" not in out.message

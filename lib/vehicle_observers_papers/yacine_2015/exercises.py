@@ -38,11 +38,56 @@ def _signals():
              + 1e-4 * np.random.default_rng(2).uniform(-1, 1, len(t)), 1e-3, 200.0)]
 
 
+def _euler_levant(f, tau, L, taylor: bool):
+    """The recursive differentiator n = 3 on samples ``f`` with plain (``taylor=False``) or
+    Taylor-augmented explicit Euler: the checker's reference for diagnosing an answer."""
+    lam, n = LEVANT_LAMBDA, 3
+    z = np.array([f[0], 0.0, 0.0, 0.0])
+    Z = np.empty((len(f), 4))
+    for k in range(len(f)):
+        Z[k] = z
+        v, prev = np.empty(4), f[k]
+        for i in range(n):
+            e, q = z[i] - prev, n - i
+            v[i] = -lam[q] * L ** (1 / (q + 1)) * abs(e) ** (q / (q + 1)) * np.sign(e) + z[i + 1]
+            prev = v[i]
+        v[n] = -lam[0] * L * np.sign(z[n] - prev)
+        znew = z + tau * v
+        if taylor:
+            znew[0] += tau**2 / 2 * z[2] + tau**3 / 6 * z[3]
+            znew[1] += tau**2 / 2 * z[3]
+        z = znew
+    return Z
+
+
+def _diagnose_1(got: dict) -> str:
+    """Which derivative estimate first leaves the library's loop, when, by how much, and whether
+    the answer is plain explicit Euler (Taylor terms missing)."""
+    for name, f, tau, L in _signals():
+        want = levant_differentiator(f, tau, 3, L)
+        G = got[name]
+        bad = np.abs(G - want) > 1e-9 * (1 + np.abs(want))
+        if not bad.any():
+            continue
+        k, i = np.argwhere(bad)[0]
+        msg = (f"on {name}: z_{i} (estimate of f^({i})) first differs at sample {k} (t = {k * tau:.3f} s): "
+               f"{G[k, i]:.6g} instead of {want[k, i]:.6g}")
+        if np.allclose(G, _euler_levant(f, tau, L, taylor=False), rtol=1e-9, atol=1e-9):
+            msg += ("; your step is plain explicit Euler. What must z_0(k+1) be when f is a cubic and "
+                    "z holds its exact derivatives? Expand f(t + tau) in tau")
+        elif k <= 1:
+            msg += "; already the first step: check the correction terms v_i (their order and which error each uses)"
+        return msg
+    return "the answer has the wrong shape"
+
+
 def check_1(levant_step, show: bool = True):
     """Exercise 02.1: ``levant_step(z, f_k, tau, L)`` -> ``z`` at the next sample, for ``n = 3``
     (Levant 2003 recursive form, gains :data:`LEVANT_LAMBDA`, Taylor-augmented explicit Euler
     of Livne & Levant 2014). Run over two signals from ``z = (f_0, 0, 0, 0)`` and compared with
-    :func:`levant_differentiator` (the library's compiled loop) at every sample."""
+    :func:`levant_differentiator` (the library's compiled loop) at every sample. The hint names
+    the first derivative estimate that leaves the library's, at which sample and by how much, and
+    says whether the answer is plain explicit Euler (the Taylor terms left out)."""
     def answer():
         out = {}
         for name, f, tau, L in _signals():
@@ -58,10 +103,17 @@ def check_1(levant_step, show: bool = True):
         return out
 
     expected = {name: levant_differentiator(f, tau, 3, L) for name, f, tau, L in _signals()}
-    return check("02.1", answer, expected, rtol=1e-9, atol=1e-9, show=show,
-                 hint="v_i uses the previous v_{i-1} (v_{-1} = f_k), exponent (n-i)/(n-i+1) and gain "
-                      "lambda_{n-i} L^{1/(n-i+1)}; then z_i += tau v_i + sum_{l>=2} tau^l/l! z_{i+l}, "
-                      "all v_i computed from the old z before any z_i changes")
+    hint = "compare your z_i with the library's at the first samples"
+    try:
+        got = answer()
+    except Exception:   # the student's code: reported by check below
+        got = None
+    if got is not None:
+        hint = _diagnose_1(got)
+        answer_value = got
+    else:
+        answer_value = answer
+    return check("02.1", answer_value, expected, rtol=1e-9, atol=1e-9, show=show, hint=hint)
 
 
 #: transformed states ``(x3 [m/s^2], x4 [rad/s^2])`` the checker of exercise 2 tries: a left
