@@ -385,55 +385,55 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
 def fig_estimates(log: DriveLog, run: to.TSRun, mismatched=None, t_settle: float = T_SETTLE):
     """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
     followed by its error panel; the v_y errors of the observer and of the premise get a panel
-    each, with its own scale (the premise's noisy error would hide the observer's). Error axes
-    scaled on ``t > t_settle``, after the start transient. ``mismatched``: ``(log, run)`` of the
-    same lap driven by a car that is not the observer's model, drawn as a second column (rows
-    share their scale, so the two columns compare)."""
+    each, and every error panel its own scale (fitted on ``t > t_settle``, after the start
+    transient), so that neither error hides the other. ``mismatched``: ``(log, run)`` of the same
+    lap driven by a car that is not the observer's model, drawn as a second column; the signal
+    rows share their scale across the columns."""
     cols = [("truth = the observer's model", log, run)]
     if mismatched is not None:
         cols.append(("mismatched car (tyres, mass, inertia, relaxation)", *mismatched))
     nc = len(cols)
-    est_style = dict(c="k", ls="--", lw=0.9)
+    obs = dict(c="k", lw=0.7)
     with plt.style.context(STYLE):
-        fig, axes = plt.subplots(7, nc, sharex=True, sharey="row", figsize=(6.2 * nc + 1, 11.5),
+        fig, axes = plt.subplots(7, nc, sharex=True, figsize=(6.2 * nc + 1, 11.5),
                                  gridspec_kw={"height_ratios": [2, 1, 1, 2, 1, 2, 1]}, squeeze=False)
-        lims = {}
         for j, (title, lg, rn) in enumerate(cols):
             late = lg.t - lg.t[0] > t_settle
             tt, yt, ye, yp = decimate(lg.t, lg.vy, rn.vy, rn.premises.vy)
             ax = axes[0, j]
             ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
             ax.plot(tt, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
-            ax.plot(tt, ye, label="TS observer (31), forces (46)", **est_style)
-            panels = [(1, ye - yt, rn.vy - lg.vy, est_style, r"observer $\hat v_y - v_y$ [m/s]"),
-                      (2, yp - yt, rn.premises.vy - lg.vy, dict(c="C1", lw=0.6),
-                       r"premise $v_{y,e} - v_y$ [m/s]")]
-            for k, (lab, truth, est) in enumerate(((r"$F_f$ [N]", lg.Ff, rn.Ff), (r"$F_r$ [N]", lg.Fr, rn.Fr))):
+            ax.plot(tt, ye, c="k", ls="--", lw=0.9, label="TS observer (31), forces (46)")
+            panels = [(1, ye - yt, rn.vy - lg.vy, obs, r"$\hat v_y - v_y$ [m/s]"),
+                      (2, yp - yt, rn.premises.vy - lg.vy, dict(c="C1", lw=0.6), r"$v_{y,e} - v_y$ [m/s]")]
+            for k, (name, truth, est) in enumerate((("F_f", lg.Ff, rn.Ff), ("F_r", lg.Fr, rn.Fr))):
                 r0 = 3 + 2 * k
-                tt, ft, fe = decimate(lg.t, truth, est)
+                _, ft, fe = decimate(lg.t, truth, est)
                 axes[r0, j].plot(tt, ft, c="0.6", lw=2.2)
-                axes[r0, j].plot(tt, fe, **est_style)
-                if j == 0:
-                    axes[r0, j].set_ylabel(lab)
-                panels.append((r0 + 1, fe - ft, est - truth, est_style,
-                               "observer error " + lab.replace("$F", r"$\hat F").split(" ")[0] + " [N]"))
+                axes[r0, j].plot(tt, fe, c="k", ls="--", lw=0.9)
+                axes[r0, j].set_ylabel(f"${name}$ [N]")
+                panels.append((r0 + 1, fe - ft, est - truth, obs, f"$\\hat {name} - {name}$ [N]"))
             for row, err_dec, err, st, lab in panels:
                 ae = axes[row, j]
                 ae.plot(tt, err_dec, **st)
                 ae.axhline(0, c="0.6", lw=0.5)
-                lims[row] = max(lims.get(row, 0.0), float(np.abs(err)[late].max()))
-                if j == 0:
-                    ae.set_ylabel(lab)
+                lim = float(np.abs(err)[late].max())
+                ae.set_ylim(-1.15 * lim, 1.15 * lim)
+                ae.set_ylabel(lab)
+            axes[0, j].set_ylabel(r"$v_y$ [m/s]")
             axes[0, j].set_title(title, fontsize=10)
             axes[-1, j].set_xlabel("$t$ [s]")
-        axes[0, 0].set_ylabel(r"$v_y$ [m/s]")
-        for row, lim in lims.items():
-            axes[row, 0].set_ylim(-1.1 * lim, 1.1 * lim)
+        for row in (0, 3, 5):           # the signals share their scale across the columns
+            lo = min(a.get_ylim()[0] for a in axes[row])
+            hi = max(a.get_ylim()[1] for a in axes[row])
+            for a in axes[row]:
+                a.set_ylim(lo, hi)
+        fig.align_ylabels(axes[:, 0])
         h, lab = axes[0, 0].get_legend_handles_labels()
         axes[-1, 0].legend(h, lab, loc="upper left", bbox_to_anchor=(0.0, -0.6), ncol=3,
                            fontsize=8, frameon=False)
         fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run); "
-                     f"error axes scaled on $t > {t_settle:g}$ s")
+                     f"each error panel scaled on $t > {t_settle:g}$ s")
     return fig
 
 
@@ -478,7 +478,7 @@ def fig_bound(checks: list[dict]):
             for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C1", lw=1.6)),
                                  ("bound_iss", "ISS bound (40)", dict(c="C4", ls=":", lw=1.6)),
                                  ("err_norm", r"$\|e(t)\|$ simulated", dict(c="k")),
-                                 ("delta_norm", r"$\|\delta(t)\|$ (30)", dict(c="C0", lw=0.6))):
+                                 ("delta_norm", r"$\|\delta_z(t)\|$ (30)", dict(c="C0", lw=0.6))):
                 tt, yy = decimate(t, np.maximum(tc[key], 1e-12))
                 col[0].semilogy(tt, yy, label=lab, **st)
             for i in range(4):
@@ -488,7 +488,9 @@ def fig_bound(checks: list[dict]):
             for ax in col:
                 ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8)
             col[-1].set_xlabel("$t$ [s]")
-            col[0].set_title(f"$\\alpha$ = {tc['alpha']:g} 1/s")
+            for ax in col:
+                ax.set_ylim(bottom=1e-9)
+            col[0].set_title(f"decay rate $\\lambda$ = {tc['alpha']:g} 1/s (paper's $\\alpha$)")
         axes[0, 0].set_ylabel(r"$\|e\|$ (12) [mixed units]")
         for i, (name, unit) in enumerate(STATE_LABELS):
             axes[i + 1, 0].set_ylabel(f"$|{name}|$ [{unit}]")
