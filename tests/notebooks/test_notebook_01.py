@@ -125,7 +125,8 @@ def test_front_sector_at_8_deg_closed_form(m):
 
 def _outputs(path, tag=None):
     nb = nbformat.read(str(path), as_version=4)
-    cells = [c for c in nb.cells if c.cell_type == "code" and (tag is None or tag in c.metadata.get("tags", []))]
+    cells = [c for c in nb.cells
+             if c.cell_type == "code" and (tag is None or tag in c.metadata.get("tags", []))]
     return cells
 
 
@@ -161,5 +162,6 @@ def test_solutions_are_correct(run_notebook):
     """Every checker call of the solutions notebook answers 'correct' (the checkers compute their
     answers independently: tests/papers/test_yacine2015_exercises_01.py)."""
     sol = run_notebook("01_ts_exactness_solutions")
-    statuses = [s for c in _outputs(sol["_executed"]) for s in re.findall(r'data-status="([a-z ]+)"', _html(c))]
+    statuses = [s for c in _outputs(sol["_executed"])
+                for s in re.findall(r'data-status="([a-z ]+)"', _html(c))]
     assert statuses == ["correct"] * 4

@@ -4,14 +4,16 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+from dataclasses import replace  # noqa: E402
+
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from dataclasses import replace  # noqa: E402
 from vehicle_observers.core.errors import ObserverArgumentError  # noqa: E402
 from vehicle_observers.models.ts import memberships  # noqa: E402
 from vehicle_observers_papers.yacine_2015 import constants as Y  # noqa: E402
 from vehicle_observers_papers.yacine_2015 import ts_exactness as exactness  # noqa: E402
+
 
 def _independent_s1(p, t, delta, vx):
     """(1) with relaxation (6), small-angle slips (4) and Pacejka (7), in the physical state

@@ -76,7 +76,8 @@ def _diagnose_1(got: dict) -> str:
             msg += ("; your step is plain explicit Euler. What must z_0(k+1) be when f is a cubic and "
                     "z holds its exact derivatives? Expand f(t + tau) in tau")
         elif k <= 1:
-            msg += "; already the first step: check the correction terms v_i (their order and which error each uses)"
+            msg += ("; already the first step: check the correction terms v_i (their order and which "
+                    "error each uses)")
         return msg
     return "the answer has the wrong shape"
 
@@ -166,7 +167,8 @@ def check_2(forces, show: bool = True):
                 if np.allclose(g[::-1], w, rtol=1e-9, atol=1e-6):
                     hint += "; the two forces are swapped"
                 elif np.allclose(g.sum(), w.sum(), rtol=1e-9, atol=1e-6):
-                    hint += "; their sum m x3 is right, so the yaw-moment line l_f F_f - l_r F_r = I_z x4 is not"
+                    hint += ("; their sum m x3 is right, so the yaw-moment line l_f F_f - l_r F_r = I_z x4 "
+                             "is not")
                 break
     return check("02.2", answer, want, rtol=1e-9, atol=1e-6, show=show, hint=hint)
 

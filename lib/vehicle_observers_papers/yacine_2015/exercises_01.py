@@ -111,15 +111,18 @@ def _diagnose_2(got_A, got_B, z) -> str:
     """Which entry of ``A(z)`` or ``B(z)`` is furthest off, by how much, and the usual cause."""
     A, B = expected_2(z)
     gA, gB = np.asarray(got_A, float), np.asarray(got_B, float).reshape(4, 1)
-    worst = max([(abs(gA[i, j] - A[i, j]), f"A[{i},{j}]", gA[i, j], A[i, j], i) for i in range(4) for j in range(4)]
+    worst = max([(abs(gA[i, j] - A[i, j]), f"A[{i},{j}]", gA[i, j], A[i, j], i)
+                 for i in range(4) for j in range(4)]
                 + [(abs(gB[i, 0] - B[i, 0]), f"B[{i},0]", gB[i, 0], B[i, 0], i) for i in range(4)])
     _, name, g, w, row = worst
     vx = z[2]
     why = ""
     if w != 0 and np.isclose(g, -w):
-        why = " (the sign: a slip angle (4) enters with -v_y/v_x, -l_f r/v_x at the front and +l_r r/v_x at the rear)"
+        why = (" (the sign: a slip angle (4) enters with -v_y/v_x, -l_f r/v_x at the front and +l_r r/v_x "
+               "at the rear)")
     elif w != 0 and (np.isclose(g, w * vx) or np.isclose(g, w / vx)):
-        why = " (a factor v_x: the relaxation's v_x/sigma multiplies the slip's 1/v_x, they cancel in every term but delta_f's)"
+        why = (" (a factor v_x: the relaxation's v_x/sigma multiplies the slip's 1/v_x, they cancel in every "
+               "term but delta_f's)")
     elif w == 0:
         why = " (this entry is zero in (13): the state does not enter that row)"
     return (f"at (f_r, f_f, v_x) = {z}: {name} (row {_ROWS_2[row]}) is {g:.6g}, expected {w:.6g}{why}")
