@@ -206,6 +206,17 @@ def emulated_fig1(p: LateralParams, ts: SectorTS, log: DriveLog, t_from: float =
             "t_from": t_from}
 
 
+def fig1_metrics(res: dict, prefix: str, where: str) -> dict:
+    """The metrics of one :func:`emulated_fig1` result as ``{name: (value, unit, note)}``: the
+    fits of every model (:func:`revs_fit_metrics` naming), the samples of the TS run outside
+    the printed sector and its largest slip angle [deg]; ``where`` names the run in the notes."""
+    out = revs_fit_metrics(res["fits"], prefix, where)
+    out[f"{prefix}_ts_out_of_bounds"] = (res["n_out_of_bounds"], "",
+                                         f"samples of the TS run outside the printed sector ({where})")
+    out[f"{prefix}_alpha_max_deg"] = (res["alpha_max_deg"], "deg",
+                                      f"largest slip angle of the TS run ({where})")
+    return out
+
 def fig1_figure(log: DriveLog, models: dict, title: str, t_window=None):
     """Fig. 1 layout: yaw rate (measured and models) and lateral velocity (truth and models)
     [rad/s, m/s], then each model's error against them; ``t_window`` ``(t0, t1)`` [s] zooms
