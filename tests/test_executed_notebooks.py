@@ -44,6 +44,8 @@ _NP_SCALAR_RE = re.compile(r"\bnp\.(?:float|int|uint|complex|bool|longdouble|str
 #: an object repr shown as a cell's result: a dataclass-like ``Name(field=...)``, a default
 #: ``<module.Class object at 0x...>``, a raw numpy array or a dict dump
 _REPR_RE = re.compile(r"^(?:[A-Z]\w*\(\w+=|<[\w.]+ object at 0x|array\(\[|\{['\"])")
+#: the markdown cell of a lesson that sends the student to the solutions notebook
+_POINTER_RE = re.compile(r"\*\*Solution and discussion:\*\* see `solutions/\d\d_\w+_solutions\.ipynb`")
 #: the status line of :func:`vehicle_observers.results.teaching.check`
 _STATUS_RE = re.compile(r'data-status="([a-z ]+)"')
 
@@ -55,8 +57,13 @@ KNOWN_FAILURES: dict[tuple[str, str], str] = {
 
 
 def saved_figures(metrics_json: Path) -> list[str]:
-    """Figure names (PNG files without extension) a notebook's ``metrics.json`` lists."""
-    files = json.loads(Path(metrics_json).read_text())["files"]
+    """Figure names (PNG files without extension) a notebook's ``metrics.json`` lists; for a
+    lesson run alone (no report, so no ``metrics.json``) the PNG files of its ``lesson/``
+    folder (``teaching.Lesson.savefig``)."""
+    metrics_json = Path(metrics_json)
+    if not metrics_json.exists() and (metrics_json.parent / "lesson").is_dir():
+        return sorted(p.stem for p in (metrics_json.parent / "lesson").glob("*.png"))
+    files = json.loads(metrics_json.read_text())["files"]
     return sorted(f[:-4] for f in files if f.endswith(".png"))
 
 
@@ -131,7 +138,7 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
     if len(starts) < minimum:
         problems.append(f"{len(starts)} exercises (want at least {minimum} '**Exercise N.**' cells)")
     shown = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
-             and c.source.lstrip().startswith("**Solution")]
+             and c.source.lstrip().startswith("**Solution") and not _POINTER_RE.match(c.source.lstrip())]
     if shown:
         problems.append(f"cells {shown}: a solution in plain sight (markdown '**Solution')")
     for n, i in enumerate(starts, 1):
@@ -145,6 +152,18 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
             block.append(c)
         stubs = [c for c in block if c.cell_type == "code" and "exercise" in c.metadata.get("tags", [])]
         sols = [c for c in block if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])]
+        pointer = [c for c in block if c.cell_type == "markdown" and _POINTER_RE.match(c.source.lstrip())]
+        if len(stubs) == 1 and not sols and len(pointer) == 1:
+            # a lesson of the lesson / report / solutions convention: the worked solution lives in
+            # solutions/NN_name_solutions.ipynb (run by the section's notebook test)
+            if "# your code here" not in stubs[0].source:
+                problems.append(f"cell {i} ({label}): the stub has no '# your code here'")
+            if _statuses(stubs[0]) != ["not attempted"]:
+                problems.append(f"cell {i} ({label}): the stub's checker said {_statuses(stubs[0])} "
+                                f"(want ['not attempted'])")
+            if f"Exercise {n}." not in pointer[0].source:
+                problems.append(f"cell {i} ({label}): the solution pointer names another exercise")
+            continue
         if len(stubs) != 1 or len(sols) != 1:
             problems.append(f"cell {i} ({label}): {len(stubs)} 'exercise' and {len(sols)} 'solution' "
                             f"code cells after it (want one of each)")
@@ -321,9 +340,13 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
     m = run_notebook(name)
     if not saved_figures(m["_dir"] / "metrics.json"):
         pytest.skip(f"{name} saves no figure")
-    checks = figure_checks_path(m["_dir"])
+    lesson_dir = Path(m["_dir"]) / "lesson"
+    is_lesson = (pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "lesson"
+                 and lesson_dir.is_dir())
+    checks = figure_checks_path(lesson_dir if is_lesson else m["_dir"])
     assert checks.exists(), f"{name}: no {checks} written by the run"
-    assert json.loads(checks.read_text())["figures_dir"] == str(Path(m["_dir"]).resolve())
+    want_dir = lesson_dir if is_lesson else Path(m["_dir"])
+    assert json.loads(checks.read_text())["figures_dir"] == str(want_dir.resolve())
     problems = [f"{fig}: {p}" for fig, ps in json.loads(checks.read_text())["problems"].items()
                 for p in ps]
     assert not problems, f"{name}: " + "; ".join(problems)
@@ -333,6 +356,8 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
 @pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
 def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
     """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
+    if pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "report":
+        pytest.skip(f"{name}: a reproduction report holds no exercise (its lesson does)")
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
     problems = exercise_problems(nb)
@@ -372,3 +397,20 @@ def test_html_of_an_executed_notebook_embeds_its_figures(tmp_path):
     assert "Observer" in html and "<title>01_demo</title>" in html
     with pytest.raises(FileNotFoundError, match="02_missing.ipynb"):
         pipeline.write_html([tmp_path / "02_missing.ipynb"], tmp_path / "html")
+
+
+def test_exercise_checker_accepts_a_lesson_that_points_to_its_solutions():
+    """A lesson (lesson / report / solutions convention): stub, then a pointer to the solutions
+    notebook naming the same exercise; a pointer naming another exercise is reported."""
+    nb = new_notebook()
+    for n in (1, 2, 3):
+        nb.cells.append(nbformat.v4.new_markdown_cell(f"**Exercise {n}.** Do it."))
+        stub = new_code_cell("def f():\n    ...  # your code here\nex.check(f)",
+                             metadata={"tags": ["exercise"]})
+        html = '<div data-status="not attempted">x</div>'
+        stub.outputs = [new_output("display_data", data={"text/html": html, "text/plain": "Exercise"})]
+        nb.cells += [stub, nbformat.v4.new_markdown_cell(
+            f"**Solution and discussion:** see `solutions/01_demo_solutions.ipynb`, Exercise {n}.")]
+    assert exercise_problems(nb) == []
+    nb.cells[-1].source = "**Solution and discussion:** see `solutions/01_demo_solutions.ipynb`, Exercise 1."
+    assert any("names another exercise" in p for p in exercise_problems(nb))
