@@ -490,7 +490,7 @@ def fig_bound(checks: list[dict]):
             col[-1].set_xlabel("$t$ [s]")
             for ax in col:
                 ax.set_ylim(bottom=1e-9)
-            col[0].set_title(f"decay rate $\\lambda$ = {tc['alpha']:g} 1/s (paper's $\\alpha$)")
+            col[0].set_title(f"decay rate $\\lambda$ = {tc['alpha']:g} 1/s (Theorem 1's $\\alpha$)")
         axes[0, 0].set_ylabel(r"$\|e\|$ (12) [mixed units]")
         for i, (name, unit) in enumerate(STATE_LABELS):
             axes[i + 1, 0].set_ylabel(f"$|{name}|$ [{unit}]")
