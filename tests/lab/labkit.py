@@ -196,8 +196,13 @@ def run_in_kernel(lab: Lab, kernel_id: str, sources: list[str], timeout: float =
 
 
 def saved_figures(figures_dir: Path, name: str) -> list[str] | None:
-    """PNG figures the run of ``name`` listed in its metrics.json (None if it wrote none)."""
+    """PNG figures the run of ``name`` listed in its metrics.json, or for a lesson (which
+    records no metrics) the PNG files of its ``lesson/`` folder (``teaching.Lesson``); None if
+    it wrote neither."""
     mj = figures_dir / name / "metrics.json"
+    lesson = figures_dir / name / "lesson"
+    if not mj.exists() and lesson.is_dir():
+        return sorted(p.stem for p in lesson.glob("*.png")) or None
     if not mj.exists():
         return None
     return sorted(f[:-4] for f in json.loads(mj.read_text())["files"] if f.endswith(".png"))
