@@ -1,6 +1,9 @@
-"""Notebook 02 (Yacine 2015: premise estimation, curvature, TS observer, Theorem 1) in quick
-mode (first 40 s of the emulated lap, top speed 16.5 m/s): key metrics against theory, the
-paper's claims and the teaching cells (exercises, widget, animation)."""
+"""Section 02 (Yacine 2015: premise estimation, curvature, TS observer, Theorem 1) in quick
+mode (first 40 s of the emulated lap, top speed 16.5 m/s): the report's metrics against theory
+and the paper's claims; the lesson's cells (the numpy observer against the compiled kernel,
+exercise stubs, widget, animation); the solutions (every checker says correct)."""
+
+import re
 
 import nbformat
 import numpy as np
@@ -11,7 +14,7 @@ pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb02")]
 
 @pytest.fixture(scope="module")
 def m(run_notebook):
-    return run_notebook("02_premise_estimation")
+    return run_notebook("02_premise_estimation_report")
 
 
 def _claim(m, item):
@@ -37,10 +40,16 @@ def test_scenario_quick_segment_speed_inside_sector(m):
 
 
 def test_hosmd_exponents(m):
-    """Levant 2003: tau^(n-i+1) and eps^((n-i+1)/(n+1)); tolerance 0.1 (< half the 0.25
-    spacing of the candidate exponents, see tests/observers/test_differentiators.py)."""
-    np.testing.assert_allclose(m["hosmd_slope_tau"], [4, 3, 2, 1], atol=0.1)
-    np.testing.assert_allclose(m["hosmd_slope_eps"], [1, 0.75, 0.5, 0.25], atol=0.1)
+    """Levant 2003: tau^(n-i+1) and eps^((n-i+1)/(n+1)), written here from the theory (not read
+    from the report's own "theory" columns); tolerance 0.1 (< half the 0.25 spacing of the
+    candidate exponents, see tests/observers/test_differentiators.py). Catches a discretisation
+    that loses the exponents (plain explicit Euler) or a wrong exponent in a correction term. The
+    exponents are the cited reference's property: the report's row is a diagnostic."""
+    n = 3
+    np.testing.assert_allclose(m["hosmd_slope_tau"], [n - i + 1 for i in range(n + 1)], atol=0.1)
+    np.testing.assert_allclose(m["hosmd_slope_eps"], [(n - i + 1) / (n + 1) for i in range(n + 1)], atol=0.1)
+    (c,) = [c for c in m["_doc"]["claims"] if c["item"].startswith("HOSMD")]
+    assert c["kind"] == "diagnostic"
 
 
 def test_differentiator_convergence_time(m):
@@ -92,10 +101,7 @@ def test_inconclusive_lmi_solutions_never_count_as_feasible(m):
     assert m["lmi_alone_n"] == len(alone) == 3
     st = dict(alone)
     assert st[0.001] == "certified" and st[10.0] == "inconclusive"
-    assert m["lmi_alone_certified"] == sum(v == "certified" for v in st.values())
-    assert m["lmi_alone_inconclusive"] == sum(v == "inconclusive" for v in st.values())
     assert m["lmi_alone_certified"] + m["lmi_alone_inconclusive"] == 3     # all sign-feasible
-    assert m["lmi_alone_max_certified_alpha"] == max(a for a, v in st.items() if v == "certified")
     assert m["lmi_alone_certified_all"] is False
     assert m["lmi_paper_status"] == "certified" and m["lmi_status"] == "certified"
     assert m["lmi_paper_xi_min_relative"] >= 1e-9 and m["lmi_paper_P_condition"] <= 1e8
@@ -139,7 +145,6 @@ def test_model_mismatch(m):
     assert m["mm_rmse_vy"] > 5 * m["matched_rmse_vy"]
     assert m["mm_rmse_vy"] > m["mm_rmse_vy_premise"]
     assert m["mm_rmse_Ff"] > m["rmse_Ff"] and m["mm_rmse_Fr"] > m["rmse_Fr"]
-    assert m["matched_rmse_vy"] == pytest.approx(m["rmse_vy"], rel=1e-3)
 
 
 def test_observer_vs_premise_claim_is_graded_on_the_mismatched_truth(m):
@@ -150,7 +155,6 @@ def test_observer_vs_premise_claim_is_graded_on_the_mismatched_truth(m):
     premise's kinematic error does not move), and crosses 1 between 0.1 and 0.25."""
     c = _claim(m, "Sec. IV: observer (31) re-estimates v_y better than the premise (26)")
     assert c["kind"] == "paper" and c["verdict"] == "differs"
-    assert c["value"] == pytest.approx(m["mm_rmse_vy"] / m["mm_rmse_vy_premise"], rel=1e-3)
     assert c["value"] > 3
     d = _claim(m, "Observer (31) vs premise (26), truth = the observer's own model")
     assert d["kind"] == "diagnostic" and d["verdict"] == "reproduced" and d["value"] < 0.5
@@ -198,8 +202,6 @@ def test_bound_decay_term_with_larger_alpha(m):
     # the alpha = 5 design is inconclusive (cond(P) > 1e8): it does not count in the verdict
     assert b["status"][k5] == "inconclusive" and b["status"][k1] == "certified"
     cert = [r for r, st in zip(b["max_ratio"], b["status"]) if st == "certified"]
-    assert m["bound_study_worst_ratio_certified"] == pytest.approx(max(cert), rel=1e-3)
-    assert m["bound_study_worst_ratio"] == pytest.approx(max(b["max_ratio"]), rel=1e-3)
     c = _claim(m, "Bound (34)/(45), larger alpha")
     assert c["value"] == pytest.approx(max(cert), rel=1e-3)
 
@@ -209,31 +211,65 @@ def test_alpha_study_observer(m):
     assert all(a["feasible"]) and all(r < 1e-3 for r in a["rmse_vy"])
 
 
-def _cells(m, tag):
-    nb = nbformat.read(m["_executed"], as_version=4)
-    return [c for c in nb.cells if tag in c.metadata.get("tags", [])]
+def _cells(path, tag=None):
+    nb = nbformat.read(str(path), as_version=4)
+    return [c for c in nb.cells
+            if c.cell_type == "code" and (tag is None or tag in c.metadata.get("tags", []))]
 
 
 def _html(cell):
     return "".join(o.get("data", {}).get("text/html", "") for o in cell.get("outputs", []))
 
 
-def test_exercises_stubs_not_attempted_and_solutions_correct(m):
-    """Four exercises (02.1-02.4), each a stub answering 'not attempted' under Run All and a
-    hidden solution answering 'correct' (the checkers compute their answers independently:
-    tests/papers/test_yacine2015_exercises.py)."""
-    stubs, sols = _cells(m, "exercise"), _cells(m, "solution")
-    assert len(stubs) == len(sols) == 4
-    for k, (st, so) in enumerate(zip(stubs, sols, strict=True), start=1):
+def _stream(cell):
+    return "".join(o.get("text", "") for o in cell.get("outputs", []) if o.get("output_type") == "stream")
+
+
+@pytest.fixture(scope="module")
+def lesson(run_notebook):
+    return run_notebook("02_premise_estimation")["_executed"]
+
+
+def test_lesson_numpy_observer_equals_the_compiled_kernel(lesson):
+    """The observer (31) built in the lesson's numpy cells (premises from v_y,e, weights, one RK4
+    step) lands on the compiled kernel to round-off over 2 s: a wrong weight order, a premise
+    not clipped or an input held from the wrong sample would differ by 1e-4 and more."""
+    (cell,) = [c for c in _cells(lesson) if "numpy observer vs compiled kernel" in c.source]
+    diff = float(re.search(r"largest difference ([0-9.e+-]+)", _stream(cell)).group(1))
+    assert diff < 1e-9
+    assert "getsource" not in "".join(c.source for c in _cells(lesson))
+
+
+def test_lesson_hosmd_and_premise_chain(lesson):
+    """The lesson's plain-Euler HOSMD and premise (26) against the library's chain: the premise's
+    RMS errors agree to 10 % (Taylor terms change the derivative by less than the noise), and the
+    curvature error is of the order of the gyro noise over v_x (2e-3 / 10 = 2e-4 1/m)."""
+    (cell,) = [c for c in _cells(lesson) if "premise v_y,e after 1 s" in c.source]
+    found = re.findall(r"RMS error ([0-9.]+) m/s \(library chain: ([0-9.]+)", _stream(cell))
+    own, lib = (float(v) for v in found[0])
+    assert own == pytest.approx(lib, rel=0.1) and lib < 0.05
+    (cell,) = [c for c in _cells(lesson) if "curvature error after 1 s" in c.source]
+    kappa = float(re.search(r"RMS ([0-9.e+-]+) 1/m", _stream(cell)).group(1))
+    assert 2e-5 < kappa < 2e-3
+
+
+def test_exercises_stubs_not_attempted_and_solutions_correct(lesson, run_notebook):
+    """Four exercises (02.1-02.4), each a stub answering 'not attempted' in the lesson (which holds
+    no solution cell), and a worked solution answering 'correct' in the solutions notebook (the
+    checkers compute their answers independently: tests/papers/test_yacine2015_exercises.py)."""
+    stubs = _cells(lesson, "exercise")
+    assert len(stubs) == 4 and not _cells(lesson, "solution")
+    for k, st in enumerate(stubs, start=1):
         assert f"Exercise 02.{k}" in _html(st) and 'data-status="not attempted"' in _html(st)
-        assert f"Exercise 02.{k}" in _html(so) and 'data-status="correct"' in _html(so)
-        assert so.metadata["jupyter"]["source_hidden"] is True
-        assert f"ex.check_{k}(" in st.source and f"ex.check_{k}(" in so.source
+        assert f"ex.check_{k}(" in st.source
+    sol = run_notebook("02_premise_estimation_solutions")["_executed"]
+    statuses = [s for c in _cells(sol) for s in re.findall(r'data-status="([a-z ]+)"', _html(c))]
+    assert statuses == ["correct"] * 4
 
 
-def test_widget_and_animation_cells(m):
+def test_widget_and_animation_cells(lesson):
     """One live figure (the differentiator against L and noise) and one animation (the
     observer's error converging under the bound), both executed without error."""
-    (w,), (a,) = _cells(m, "widget"), _cells(m, "animation")
+    (w,), (a,) = _cells(lesson, "widget"), _cells(lesson, "animation")
     assert "live_figure" in w.source and "application/vnd.jupyter.widget-view+json" in w.outputs[0].data
     assert "teaching.animation" in a.source and "<script" in _html(a)

@@ -31,10 +31,9 @@ def plain_euler_step(z, f_k, tau, L):
                             for i in range(4)])
 
 
-def sector(tire, amax):
-    a = np.linspace(1e-6, amax, 20001)
-    f = tire.force(a) / a
-    return f.min(), f.max()
+def forces(x3, x4, p=ex.Y.params):
+    L = p.a_f + p.a_r
+    return (p.m * p.a_r * x3 + p.I_z * x4) / L, (p.m * p.a_f * x3 - p.I_z * x4) / L
 
 
 def decay_gain(A, C, alpha, eps=1e-3):
@@ -54,7 +53,7 @@ def t_informative(alpha, c, a1, a2, e0, dmax, T):
 
 @pytest.mark.parametrize("k,right,wrong", [
     (1, levant_step, plain_euler_step),
-    (2, sector, lambda tire, amax: (3.3e4, 4.2e4)),                     # the front sector, hard-coded
+    (2, forces, lambda x3, x4: forces(x3, x4)[::-1]),                   # the two forces swapped
     (3, decay_gain, lambda A, C, alpha: (np.eye(len(A)), np.zeros((len(A), 1)))),   # no gain
     (4, t_informative, lambda alpha, c, a1, a2, e0, dmax, T: 2 / alpha * np.log(np.sqrt(a2 / a1))),
 ])
@@ -76,3 +75,21 @@ def test_decay_certificate_refuses_a_closed_loop_at_the_decay_limit():
     shift = np.linalg.eigvals(Phi).real.max() + alpha / 2 - 1e-12
     A2 = A - shift * np.eye(2)
     assert ex.certify_decay(A2, C, alpha, P, L)["status"] != "certified"
+
+
+def test_forces_hint_says_which_force_and_by_how_many_newtons():
+    """Exercise 02.2's hint diagnoses in newtons: a yaw-moment sign error keeps F_f + F_r = m x3
+    and the hint says so (catches a hint that only reports a relative error)."""
+    out = ex.check_2(lambda x3, x4: forces(x3, -x4), show=False)
+    assert out.status == WRONG and " N" in out.message and "yaw-moment" in out.message
+    Ff, Fr = ex.expected_2(2.0, 0.5)
+    assert Ff + Fr == pytest.approx(1500 * 2.0) and 1.1 * Ff - 1.44 * Fr == pytest.approx(2454 * 0.5)
+
+
+def test_levant_hint_recognises_plain_euler():
+    """A step without the Taylor terms is diagnosed as plain explicit Euler, with the derivative
+    estimate and the sample where it leaves the library's loop (catches a hint that gives the
+    code instead of a diagnosis, or none)."""
+    out = ex.check_1(plain_euler_step, show=False)
+    assert out.status == WRONG and "plain explicit Euler" in out.message and "sample" in out.message
+    assert "tau**" not in out.message and "z_i +=" not in out.message

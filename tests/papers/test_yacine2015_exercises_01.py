@@ -17,9 +17,20 @@ def sector_form(x3, x3_max, g=9.81, p=0.6):
     return z_min, z_max, h1, 1 - h1
 
 
-def rear_sector(alpha_max_deg):
-    f = Y.tire_r.secant_stiffness(np.radians(np.linspace(-alpha_max_deg, alpha_max_deg, 2001)))
-    return f.min(), f.max()
+def ts_matrices(fr, ff, vx, p=Y.params):
+    """(19)-(21) written out from (13) with F_i^S = f_i alpha_i and the slips (4)."""
+    m, Iz, lf, lr, s = p.m, p.I_z, p.a_f, p.a_r, p.r_f
+    A = np.array([[0, -vx, 1, 0], [0, 0, 0, 1],
+                  [-(ff + fr) / (m * s), -(lf * ff - lr * fr) / (m * s), -vx / s, 0],
+                  [-(lf * ff - lr * fr) / (Iz * s), -(lf**2 * ff + lr**2 * fr) / (Iz * s), 0, -vx / s]])
+    return A, np.array([[0], [0], [vx * ff / (m * s)], [lf * vx * ff / (Iz * s)]])
+
+
+def ts_matrices_vx_kept(fr, ff, vx):
+    """The classic slip: the 1/v_x of the slip angle kept beside the relaxation's v_x."""
+    A, B = ts_matrices(fr, ff, vx)
+    A[2:, :2] *= vx
+    return A, B
 
 
 def clipped_error(alpha_deg):
@@ -37,10 +48,10 @@ def bicycle_vertices(bounds, v):
     return np.array(A, float), np.array(B, float)
 
 
-SOLUTIONS = {1: sector_form, 2: rear_sector, 3: clipped_error, 4: bicycle_vertices}
+SOLUTIONS = {1: sector_form, 2: ts_matrices, 3: clipped_error, 4: bicycle_vertices}
 WRONG = {
     1: lambda x3, xm: (lambda r: (r[0], r[1], r[3], r[2]))(sector_form(x3, xm)),   # weights swapped
-    2: lambda a: rear_sector(np.radians(a)),                                     # degrees twice
+    2: ts_matrices_vx_kept,                                                      # v_x not cancelled
     3: lambda a: 0.0,                                                             # "always exact"
     4: lambda b, v: (bicycle_vertices(b, v)[0][::-1], bicycle_vertices(b, v)[1]),  # order reversed
 }
@@ -55,11 +66,26 @@ def test_checker_accepts_solution_rejects_wrong_reports_stub(n):
     assert teaching.RESULTS[f"01.{n}"] == teaching.EMPTY
 
 
-def test_hard_coded_answer_fails():
-    """A constant answer right for one input is wrong for the others the checker tries."""
-    lo8, hi8 = ex.expected_2(8.0)
-    assert (lo8, hi8) == pytest.approx((3.3e4, 4.9e4), rel=1e-6)  # the paper's rear sector
-    assert ex.check_2(lambda a: (lo8, hi8), show=False).status == teaching.WRONG
+def test_hard_coded_answer_fails_and_the_hint_names_the_entry():
+    """A constant answer right for one premise point is wrong for the others the checker tries;
+    a wrong entry is named with its row of (13) and the usual cause (catches a checker whose
+    hint gives no diagnosis)."""
+    A0, B0 = ts_matrices(*ex.Z_2[0])
+    assert ex.check_2(lambda *z: (A0, B0), show=False).status == teaching.WRONG
+    out = ex.check_2(ts_matrices_vx_kept, show=False)
+    assert "A[3,1] (row dx4/dt" in out.message and "factor v_x" in out.message
+
+
+def test_expected_matrices_against_the_printed_entries_of_21():
+    """expected_2 (built from (13) on unit vectors) against entries of (21) computed by hand for
+    the paper's car at (f_r, f_f, v_x) = (4.9e4, 4.2e4, 17): catches a wrong premise factor or
+    sign in the checker itself. -(f_f + f_r)/(m sigma) = -91000/150 = -606.67 1/s^2,
+    v_x f_f/(m sigma) = 17 * 42000/150 = 4760 m/s^3/rad."""
+    A, B = ex.expected_2((4.9e4, 4.2e4, 17.0))
+    assert A[2, 0] == pytest.approx(-91000 / 150, rel=1e-12)
+    assert A[0, 1] == -17.0 and A[2, 2] == pytest.approx(-170.0) and A[1, 3] == 1.0
+    assert B[2, 0] == pytest.approx(17 * 42000 / 150, rel=1e-12)
+    assert A[3, 1] == pytest.approx(-(1.1**2 * 42000 + 1.44**2 * 49000) / (2454 * 0.1), rel=1e-12)
 
 
 def test_expected_answers_closed_forms():

@@ -7,7 +7,8 @@ one input (so a hard-coded number fails) and shows one line through
 ``not attempted`` while the stub still returns ``...``).
 
 1. one step of Levant's differentiator (HOSMD, n = 3) against the compiled library loop;
-2. the sector bounds (17) of the premise ``f_i = F_i^S(alpha_i) / alpha_i`` (16) of a tyre;
+2. the lateral forces from the transformed state (12) (the paper's (46)), derived by solving
+   the two lines of (12);
 3. a decay-rate LMI (the core of (33), one vertex, no premise error) solved with cvxpy and
    certified by eigenvalues;
 4. the time after which the bound (45) falls below ``||e(0)||``, closed form against the
@@ -25,7 +26,6 @@ from vehicle_observers.results.teaching import check
 
 from vehicle_observers_papers.yacine_2015 import constants as Y
 from vehicle_observers_papers.yacine_2015 import theorem1 as T1
-from vehicle_observers_papers.yacine_2015.premise_estimation import mismatched_params
 
 _EMPTY = (None, Ellipsis)
 
@@ -38,11 +38,57 @@ def _signals():
              + 1e-4 * np.random.default_rng(2).uniform(-1, 1, len(t)), 1e-3, 200.0)]
 
 
+def _euler_levant(f, tau, L, taylor: bool):
+    """The recursive differentiator n = 3 on samples ``f`` with plain (``taylor=False``) or
+    Taylor-augmented explicit Euler: the checker's reference for diagnosing an answer."""
+    lam, n = LEVANT_LAMBDA, 3
+    z = np.array([f[0], 0.0, 0.0, 0.0])
+    Z = np.empty((len(f), 4))
+    for k in range(len(f)):
+        Z[k] = z
+        v, prev = np.empty(4), f[k]
+        for i in range(n):
+            e, q = z[i] - prev, n - i
+            v[i] = -lam[q] * L ** (1 / (q + 1)) * abs(e) ** (q / (q + 1)) * np.sign(e) + z[i + 1]
+            prev = v[i]
+        v[n] = -lam[0] * L * np.sign(z[n] - prev)
+        znew = z + tau * v
+        if taylor:
+            znew[0] += tau**2 / 2 * z[2] + tau**3 / 6 * z[3]
+            znew[1] += tau**2 / 2 * z[3]
+        z = znew
+    return Z
+
+
+def _diagnose_1(got: dict) -> str:
+    """Which derivative estimate first leaves the library's loop, when, by how much, and whether
+    the answer is plain explicit Euler (Taylor terms missing)."""
+    for name, f, tau, L in _signals():
+        want = levant_differentiator(f, tau, 3, L)
+        G = got[name]
+        bad = np.abs(G - want) > 1e-9 * (1 + np.abs(want))
+        if not bad.any():
+            continue
+        k, i = np.argwhere(bad)[0]
+        msg = (f"on {name}: z_{i} (estimate of f^({i})) first differs at sample {k} (t = {k * tau:.3f} s): "
+               f"{G[k, i]:.6g} instead of {want[k, i]:.6g}")
+        if np.allclose(G, _euler_levant(f, tau, L, taylor=False), rtol=1e-9, atol=1e-9):
+            msg += ("; your step is plain explicit Euler. What must z_0(k+1) be when f is a cubic and "
+                    "z holds its exact derivatives? Expand f(t + tau) in tau")
+        elif k <= 1:
+            msg += ("; already the first step: check the correction terms v_i (their order and which "
+                    "error each uses)")
+        return msg
+    return "the answer has the wrong shape"
+
+
 def check_1(levant_step, show: bool = True):
     """Exercise 02.1: ``levant_step(z, f_k, tau, L)`` -> ``z`` at the next sample, for ``n = 3``
     (Levant 2003 recursive form, gains :data:`LEVANT_LAMBDA`, Taylor-augmented explicit Euler
     of Livne & Levant 2014). Run over two signals from ``z = (f_0, 0, 0, 0)`` and compared with
-    :func:`levant_differentiator` (the library's compiled loop) at every sample."""
+    :func:`levant_differentiator` (the library's compiled loop) at every sample. The hint names
+    the first derivative estimate that leaves the library's, at which sample and by how much, and
+    says whether the answer is plain explicit Euler (the Taylor terms left out)."""
     def answer():
         out = {}
         for name, f, tau, L in _signals():
@@ -58,34 +104,73 @@ def check_1(levant_step, show: bool = True):
         return out
 
     expected = {name: levant_differentiator(f, tau, 3, L) for name, f, tau, L in _signals()}
-    return check("02.1", answer, expected, rtol=1e-9, atol=1e-9, show=show,
-                 hint="v_i uses the previous v_{i-1} (v_{-1} = f_k), exponent (n-i)/(n-i+1) and gain "
-                      "lambda_{n-i} L^{1/(n-i+1)}; then z_i += tau v_i + sum_{l>=2} tau^l/l! z_{i+l}, "
-                      "all v_i computed from the old z before any z_i changes")
+    hint = "compare your z_i with the library's at the first samples"
+    try:
+        got = answer()
+    except Exception:   # the student's code: reported by check below
+        got = None
+    if got is not None:
+        hint = _diagnose_1(got)
+        answer_value = got
+    else:
+        answer_value = answer
+    return check("02.1", answer_value, expected, rtol=1e-9, atol=1e-9, show=show, hint=hint)
 
 
-def check_2(sector, show: bool = True):
-    """Exercise 02.2: ``sector(tire, alpha_max)`` -> ``(f_min, f_max)`` [N/rad] of the secant
-    stiffness ``F(alpha)/alpha`` (16) over ``|alpha| <= alpha_max`` [rad]. Three cases: the
-    paper's front and rear tyres at 8 deg (the answer is the printed sector (17)) and the
-    mismatched front tyre of section 7 at 5 deg; expected from ``Pacejka.sector_bounds``."""
-    mm = mismatched_params()
-    cases = {"front, 8 deg": (Y.tire_f, np.radians(8.0)), "rear, 8 deg": (Y.tire_r, np.radians(8.0)),
-             "mismatched front, 5 deg": (mm.tire_f, np.radians(5.0))}
+#: transformed states ``(x3 [m/s^2], x4 [rad/s^2])`` the checker of exercise 2 tries: a left
+#: turn (both forces positive), a pure yaw moment (x3 = 0) and a braking-like mix
+X34_2 = ((2.0, 0.5), (0.0, 1.0), (-3.0, 2.0))
+
+
+def expected_2(x3, x4, p=None) -> tuple[float, float]:
+    """``(F_f, F_r)`` [N] solving the two lines of (12), ``x3 = (F_f + F_r)/m`` and
+    ``x4 = (l_f F_f - l_r F_r)/I_z``, as a linear system (``numpy.linalg.solve``), not the closed
+    form (46) the library uses."""
+    p = Y.params if p is None else p
+    M = np.array([[1 / p.m, 1 / p.m], [p.a_f / p.I_z, -p.a_r / p.I_z]])
+    return tuple(float(v) for v in np.linalg.solve(M, [x3, x4]))
+
+
+def check_2(forces, show: bool = True):
+    """Exercise 02.2: ``forces(x3, x4)`` -> ``(F_f, F_r)`` [N]: the lateral forces of the paper's
+    car recovered from the transformed state (12) (the observer estimates ``x3, x4``, the paper
+    plots forces: its (46)). Three states :data:`X34_2`; the hint names the force that is off,
+    by how many newtons, and the usual cause (the two forces swapped, a sign of the yaw-moment
+    term)."""
+    want = {f"(x3, x4) = {x}": np.array(expected_2(*x)) for x in X34_2}
+    got = {}
 
     def answer():
-        out = {}
-        for k, (tire, amax) in cases.items():
-            got = sector(tire, amax)
-            if got is None or got is Ellipsis:
+        for x in X34_2:
+            out = forces(*x)
+            if out is None or out is Ellipsis or any(o is None or o is Ellipsis for o in out):
                 return None
-            out[k] = np.asarray(got, dtype=float)
-        return out
+            got[f"(x3, x4) = {x}"] = np.asarray(out, dtype=float).ravel()
+        return dict(got)
 
-    expected = {k: np.array(tire.sector_bounds(amax)) for k, (tire, amax) in cases.items()}
-    return check("02.2", answer, expected, rtol=1e-4, show=show,
-                 hint="f(alpha) = tire.force(alpha) / alpha on a grid of |alpha| <= alpha_max that "
-                      "avoids alpha = 0 (its limit there is B C D, the largest value); return (min, max)")
+    hint = ("write the two lines of (12) as a 2 x 2 linear system in (F_f, F_r) and solve it "
+            "(by hand: add l_r times the first to the second)")
+    try:
+        probe = answer()
+    except Exception:   # the student's code: reported by check below
+        probe = None
+    if probe:
+        for k, w in want.items():
+            g = probe[k]
+            if g.shape != (2,):
+                hint = f"return two numbers (F_f, F_r) in N, got {g.size}"
+                break
+            if not np.allclose(g, w, rtol=1e-9, atol=1e-6):
+                i = int(np.argmax(np.abs(g - w)))
+                name = ("F_f", "F_r")[i]
+                hint = f"at {k}: {name} is {g[i]:.1f} N, expected {w[i]:.1f} N (off by {g[i] - w[i]:+.1f} N)"
+                if np.allclose(g[::-1], w, rtol=1e-9, atol=1e-6):
+                    hint += "; the two forces are swapped"
+                elif np.allclose(g.sum(), w.sum(), rtol=1e-9, atol=1e-6):
+                    hint += ("; their sum m x3 is right, so the yaw-moment line l_f F_f - l_r F_r = I_z x4 "
+                             "is not")
+                break
+    return check("02.2", answer, want, rtol=1e-9, atol=1e-6, show=show, hint=hint)
 
 
 #: the systems of exercise 3: (name, A, C, alpha)

@@ -8,7 +8,8 @@ with a hint, or ``not attempted`` while the stub still returns ``None`` (``...``
 
 1. Sector form of the gravity term ``(g/p) sin x3`` of the Ichalal 2011 bicycle (25):
    bounds of ``z1 = (g/p) sin(x3)/x3`` on ``|x3| <= x3_max`` and the two weights.
-2. Sector bounds of the rear Pacejka tyre (Yacine 2015, (7), (16)) on a slip interval.
+2. The matrices ``A(z), B(z)`` of the Yacine 2015 TS form (19)-(21), derived from (13) and
+   the slip angles (4) with the premise factored out (``F_i^S = f_i alpha_i``).
 3. Error of the TS blend with clipped weights outside the sector (Yacine 2015, (14)-(18)).
 4. The ``2^p`` vertex matrices of the bicycle TS model (Ichalal 2011, Sec. III-A).
 """
@@ -78,36 +79,92 @@ def check_1(answer, show: bool = True):
 
 # --------------------------------------------------------------------------- exercise 2 ------
 
-def expected_2(alpha_max_deg: float, tyre=None) -> tuple[float, float]:
-    """Closed form for ``E = 0``: ``f(a) = D sin(C atan(B a))/a`` is even and decreasing in
-    ``|a|`` on the slip range, so the bounds are ``(f(alpha_max), f(0) = B C D)`` [N/rad]."""
-    t = Y.tire_r if tyre is None else tyre
-    a = np.radians(alpha_max_deg)
-    return float(t.D * np.sin(t.C * np.arctan(t.B * a)) / a), float(t.B * t.C * t.D)
+#: premise points ``(f_r [N/rad], f_f [N/rad], v_x [m/s])`` the checker of exercise 2 tries
+Z_2 = ((4.9e4, 4.2e4, 17.0), (3.3e4, 3.3e4, 0.2), (4.1e4, 3.7e4, 9.0))
+
+#: what each row of (13) is, for the hints of exercise 2
+_ROWS_2 = ("dx1/dt [m/s^2]", "dx2/dt [rad/s^2]", "dx3/dt [m/s^3]", "dx4/dt [rad/s^3]")
 
 
-#: slip ranges [deg] the checker of exercise 2 tries
-ALPHA_MAX_2 = (3.0, 5.0, 8.0)
+def expected_2(z, p=None) -> tuple[np.ndarray, np.ndarray]:
+    """``A(z)`` (4, 4) and ``B(z)`` (4, 1) of (19)-(21), computed without the library's formula:
+    the transformed model (13) with the steady forces frozen at ``F_i^S = f_i alpha_i`` (the
+    premise factored out, (14)-(16)) and the small-angle slips (4) is linear in ``(x, delta_f)``;
+    its columns are its values on the unit vectors."""
+    p = Y.params if p is None else p
+    fr, ff, vx = z
+    sig = p.r_f
+
+    def f13(x, d):
+        a_f = d - x[0] / vx - p.a_f * x[1] / vx
+        a_r = -x[0] / vx + p.a_r * x[1] / vx
+        Ff, Fr = ff * a_f, fr * a_r
+        return np.array([-vx * x[1] + x[2], x[3],
+                         -vx / sig * x[2] + vx / (p.m * sig) * (Ff + Fr),
+                         -vx / sig * x[3] + vx / (p.I_z * sig) * (p.a_f * Ff - p.a_r * Fr)])
+
+    A = np.column_stack([f13(e, 0.0) for e in np.eye(4)])
+    return A, f13(np.zeros(4), 1.0)[:, None]
+
+
+def _diagnose_2(got_A, got_B, z) -> str:
+    """Which entry of ``A(z)`` or ``B(z)`` is furthest off, by how much, and the usual cause."""
+    A, B = expected_2(z)
+    gA, gB = np.asarray(got_A, float), np.asarray(got_B, float).reshape(4, 1)
+    worst = max([(abs(gA[i, j] - A[i, j]), f"A[{i},{j}]", gA[i, j], A[i, j], i)
+                 for i in range(4) for j in range(4)]
+                + [(abs(gB[i, 0] - B[i, 0]), f"B[{i},0]", gB[i, 0], B[i, 0], i) for i in range(4)])
+    _, name, g, w, row = worst
+    vx = z[2]
+    why = ""
+    if w != 0 and np.isclose(g, -w):
+        why = (" (the sign: a slip angle (4) enters with -v_y/v_x, -l_f r/v_x at the front and +l_r r/v_x "
+               "at the rear)")
+    elif w != 0 and (np.isclose(g, w * vx) or np.isclose(g, w / vx)):
+        why = (" (a factor v_x: the relaxation's v_x/sigma multiplies the slip's 1/v_x, they cancel in every "
+               "term but delta_f's)")
+    elif w == 0:
+        why = " (this entry is zero in (13): the state does not enter that row)"
+    return (f"at (f_r, f_f, v_x) = {z}: {name} (row {_ROWS_2[row]}) is {g:.6g}, expected {w:.6g}{why}")
 
 
 def check_2(answer, show: bool = True):
-    """``answer(alpha_max_deg)`` -> ``(M_min, M_max)`` [N/rad] of the rear tyre's secant
-    stiffness on ``|alpha| <= alpha_max``; graded at :data:`ALPHA_MAX_2` (8 deg gives the
-    paper's sector ``[3.3e4, 4.9e4]``)."""
-    want = {f"{a:g} deg": expected_2(a) for a in ALPHA_MAX_2}
+    """``answer(fr, ff, vx)`` -> ``(A, B)`` with ``A`` (4, 4), ``B`` (4, 1): the matrices of the
+    Yacine 2015 TS form at premises ``(f_r, f_f, v_x)``, derived from (13) and (4) for the
+    paper's car (``Y.params``). Graded at the three points :data:`Z_2` against
+    :func:`expected_2`; the hint names the entry furthest off, its row of (13), the error and
+    the usual cause (a sign of a slip term, a factor ``v_x``)."""
+    want, got_all = {}, {}
+    for z in Z_2:
+        A, B = expected_2(z)
+        want[f"{z}: A"], want[f"{z}: B"] = A, B
 
     def run():
-        got = {}
-        for a in ALPHA_MAX_2:
-            out = answer(a)
+        for z in Z_2:
+            out = answer(*z)
             if _empty(out):
                 return None
-            got[f"{a:g} deg"] = out
-        return got
+            gA, gB = out
+            got_all[z] = (np.asarray(gA, float), np.asarray(gB, float).reshape(-1, 1))
+        return {k: got_all[z][i] for z in Z_2 for i, k in enumerate((f"{z}: A", f"{z}: B"))}
 
-    return teaching.check("01.2", run, want, rtol=1e-4, show=show,
-                          hint="evaluate Y.tire_r.secant_stiffness on a grid of |alpha| <= alpha_max "
-                               "(in rad, not deg) and take its min and max")
+    hint = ("derive each row of (13) with F_i^S = f_i alpha_i and the slips (4); collect the "
+            "coefficients of x1..x4 (A) and of delta_f (B)")
+    probe = None
+    try:
+        probe = run()
+    except Exception:   # the student's code: reported by teaching.check below
+        probe = None
+    if probe is not None:
+        for z, (gA, gB) in got_all.items():
+            if gA.shape != (4, 4) or gB.shape != (4, 1):
+                hint = f"A must be (4, 4) and B (4, 1); got {gA.shape} and {gB.shape}"
+                break
+            A, B = expected_2(z)
+            if not (np.allclose(gA, A, rtol=1e-9, atol=1e-9) and np.allclose(gB, B, rtol=1e-9, atol=1e-9)):
+                hint = _diagnose_2(gA, gB, z)
+                break
+    return teaching.check("01.2", run, want, rtol=1e-9, atol=1e-9, show=show, hint=hint)
 
 
 # --------------------------------------------------------------------------- exercise 3 ------

@@ -164,7 +164,8 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
     b_ol = T1.bound_34(log.t, en_ol[0], np.linalg.norm(dl_ol, axis=1), T, design)
     a, a1, a2 = design.alpha, design.alpha1, design.alpha2
     B0 = np.sqrt(a2 / a1 * en[0] ** 2 + design.c / (a * a1) * b["delta_max_T"] ** 2 * np.exp(a * T))
-    return {"alpha": a, "t": log.t, "err_norm": en, "delta_norm": dn, "bound_iss": b["iss"],
+    return {"alpha": a, "t": log.t, "err": xt - run.x, "err_norm": en, "delta_norm": dn,
+            "bound_iss": b["iss"],
             "bound_paper": b["paper"], "T": T, "truth_inside_sector": inside,
             "max_ratio": float(np.max(en / b["paper"])),
             "max_ratio_iss": float(np.max(en / b["iss"])),
@@ -383,46 +384,56 @@ def fig_scenario(track, log: DriveLog, vx_sector=(yacine2015.vx_min, yacine2015.
 
 def fig_estimates(log: DriveLog, run: to.TSRun, mismatched=None, t_settle: float = T_SETTLE):
     """Fig. 2 analogue: v_y (truth, premise (26), observer), F_f, F_r (truth, observer), each
-    with an error panel (truth and estimate overlap at this scale; error axes scaled on
-    ``t > t_settle``, after the start transient). ``mismatched``: ``(log, run)`` of the same lap
-    driven by a car that is not the observer's model, drawn as a second column (same axes)."""
+    followed by its error panel; the v_y errors of the observer and of the premise get a panel
+    each, and every error panel its own scale (fitted on ``t > t_settle``, after the start
+    transient), so that neither error hides the other. ``mismatched``: ``(log, run)`` of the same
+    lap driven by a car that is not the observer's model, drawn as a second column; the signal
+    rows share their scale across the columns."""
     cols = [("truth = the observer's model", log, run)]
     if mismatched is not None:
         cols.append(("mismatched car (tyres, mass, inertia, relaxation)", *mismatched))
     nc = len(cols)
+    obs = dict(c="k", lw=0.7)
     with plt.style.context(STYLE):
-        fig, axes = plt.subplots(6, nc, sharex=True, sharey="row", figsize=(6.2 * nc + 1, 9.5),
-                                 gridspec_kw={"height_ratios": [2, 1] * 3}, squeeze=False)
+        fig, axes = plt.subplots(7, nc, sharex=True, figsize=(6.2 * nc + 1, 11.5),
+                                 gridspec_kw={"height_ratios": [2, 1, 1, 2, 1, 2, 1]}, squeeze=False)
         for j, (title, lg, rn) in enumerate(cols):
-            rows = [(r"$v_y$ [m/s]", lg.vy, rn.vy, rn.premises.vy),
-                    (r"$F_f$ [N]", lg.Ff, rn.Ff, None), (r"$F_r$ [N]", lg.Fr, rn.Fr, None)]
             late = lg.t - lg.t[0] > t_settle
-            for k, (lab, truth, est, prem) in enumerate(rows):
-                ax, ae = axes[2 * k, j], axes[2 * k + 1, j]
-                tt, yt, ye = decimate(lg.t, truth, est)
-                ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
-                lim = np.abs(est - truth)[late].max()
-                if prem is not None:
-                    tp, yp, ep = decimate(lg.t, prem, prem - truth)
-                    ax.plot(tp, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
-                    ae.plot(tp, ep, c="C1", lw=0.6)
-                    lim = max(lim, np.abs(prem - truth)[late].max())
-                ax.plot(tt, ye, c="k", ls="--", lw=0.9, label="TS observer (31), forces (46)")
-                ae.plot(tt, ye - yt, c="k", lw=0.7)
+            tt, yt, ye, yp = decimate(lg.t, lg.vy, rn.vy, rn.premises.vy)
+            ax = axes[0, j]
+            ax.plot(tt, yt, c="0.6", lw=2.2, label="truth")
+            ax.plot(tt, yp, c="C1", lw=0.6, label="premise (26), HOSMD")
+            ax.plot(tt, ye, c="k", ls="--", lw=0.9, label="TS observer (31), forces (46)")
+            panels = [(1, ye - yt, rn.vy - lg.vy, obs, r"$\hat v_y - v_y$ [m/s]"),
+                      (2, yp - yt, rn.premises.vy - lg.vy, dict(c="C1", lw=0.6), r"$v_{y,e} - v_y$ [m/s]")]
+            for k, (name, truth, est) in enumerate((("F_f", lg.Ff, rn.Ff), ("F_r", lg.Fr, rn.Fr))):
+                r0 = 3 + 2 * k
+                _, ft, fe = decimate(lg.t, truth, est)
+                axes[r0, j].plot(tt, ft, c="0.6", lw=2.2)
+                axes[r0, j].plot(tt, fe, c="k", ls="--", lw=0.9)
+                axes[r0, j].set_ylabel(f"${name}$ [N]")
+                panels.append((r0 + 1, fe - ft, est - truth, obs, f"$\\hat {name} - {name}$ [N]"))
+            for row, err_dec, err, st, lab in panels:
+                ae = axes[row, j]
+                ae.plot(tt, err_dec, **st)
                 ae.axhline(0, c="0.6", lw=0.5)
-                if j == 0:
-                    ax.set_ylabel(lab)
-                    ae.set_ylabel("error " + lab.split(" ")[1])
-                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
-                elif 1.1 * lim > ae.get_ylim()[1]:
-                    ae.set_ylim(-1.1 * lim, 1.1 * lim)
+                lim = float(np.abs(err)[late].max())
+                ae.set_ylim(-1.15 * lim, 1.15 * lim)
+                ae.set_ylabel(lab)
+            axes[0, j].set_ylabel(r"$v_y$ [m/s]")
             axes[0, j].set_title(title, fontsize=10)
             axes[-1, j].set_xlabel("$t$ [s]")
+        for row in (0, 3, 5):           # the signals share their scale across the columns
+            lo = min(a.get_ylim()[0] for a in axes[row])
+            hi = max(a.get_ylim()[1] for a in axes[row])
+            for a in axes[row]:
+                a.set_ylim(lo, hi)
+        fig.align_ylabels(axes[:, 0])
         h, lab = axes[0, 0].get_legend_handles_labels()
-        axes[-1, 0].legend(h, lab, loc="upper left", bbox_to_anchor=(0.0, -0.55), ncol=3,
+        axes[-1, 0].legend(h, lab, loc="upper left", bbox_to_anchor=(0.0, -0.6), ncol=3,
                            fontsize=8, frameon=False)
         fig.suptitle("Lateral dynamics estimation (Yacine 2015 Fig. 2 analogue, emulated run); "
-                     f"error axes scaled on $t > {t_settle:g}$ s")
+                     f"each error panel scaled on $t > {t_settle:g}$ s")
     return fig
 
 
@@ -447,26 +458,45 @@ def fig_curvature(log: DriveLog, pe: to.PremiseEstimate, vx_min: float = VX_RHO_
     return fig
 
 
+#: the states of the transformed model (12) with their units, for the per-state panels
+STATE_LABELS = ((r"e_1 = v_y - \hat v_y", "m/s"), (r"e_2 = r - \hat r", "rad/s"),
+                (r"e_3", "m/s$^2$"), (r"e_4", "rad/s$^2$"))
+
+
 def fig_bound(checks: list[dict]):
-    """Bound (34)/(45) and the ISS form (40) vs the error norm, log scale; one panel per
-    :func:`theory_check` result (``checks`` items carry the design's ``alpha``)."""
+    """Bound (34)/(45) and the ISS form (40) against the error, log scale; one column per
+    :func:`theory_check` result (``checks`` items carry the design's ``alpha``). Top row: the
+    Euclidean norm of Theorem 1 (the transformed state (12) mixes m/s, rad/s, m/s^2 and
+    rad/s^2: the norm has no single unit); the rows below: each state's error ``|e_i|`` in its
+    own unit, with the same bound (``|e_i| <= ||e||``, so the bound also holds per state)."""
     with plt.style.context(STYLE):
-        fig, axes = plt.subplots(1, len(checks), figsize=(5.2 * len(checks), 4), sharey=True,
-                                 squeeze=False)
-        for ax, tc in zip(axes[0], checks, strict=True):
+        fig, axes = plt.subplots(5, len(checks), figsize=(5.2 * len(checks) + 1.5, 11), sharex=True,
+                                 sharey="row", squeeze=False)
+        for j, tc in enumerate(checks):
             t = tc["t"]
+            col = axes[:, j]
             for key, lab, st in (("bound_paper", "bound (34)/(45)", dict(c="C1", lw=1.6)),
                                  ("bound_iss", "ISS bound (40)", dict(c="C4", ls=":", lw=1.6)),
                                  ("err_norm", r"$\|e(t)\|$ simulated", dict(c="k")),
-                                 ("delta_norm", r"$\|\delta(t)\|$ (30)", dict(c="C0", lw=0.6))):
+                                 ("delta_norm", r"$\|\delta_z(t)\|$ (30)", dict(c="C0", lw=0.6))):
                 tt, yy = decimate(t, np.maximum(tc[key], 1e-12))
-                ax.semilogy(tt, yy, label=lab, **st)
-            ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8)
-            ax.set_xlabel("$t$ [s]")
-            ax.set_title(f"$\\alpha$ = {tc['alpha']:g}")
-        axes[0, 0].set_ylabel("norm (transformed state (12), mixed units)")
+                col[0].semilogy(tt, yy, label=lab, **st)
+            for i in range(4):
+                tt, ei, bp = decimate(t, np.maximum(np.abs(tc["err"][:, i]), 1e-12), tc["bound_paper"])
+                col[i + 1].semilogy(tt, bp, c="C1", lw=1.6)
+                col[i + 1].semilogy(tt, ei, c="k", lw=0.8)
+            for ax in col:
+                ax.axvline(tc["T"], c="0.5", ls="--", lw=0.8)
+            col[-1].set_xlabel("$t$ [s]")
+            for ax in col:
+                ax.set_ylim(bottom=1e-9)
+            col[0].set_title(f"decay rate $\\lambda$ = {tc['alpha']:g} 1/s (Theorem 1's $\\alpha$)")
+        axes[0, 0].set_ylabel(r"$\|e\|$ (12) [mixed units]")
+        for i, (name, unit) in enumerate(STATE_LABELS):
+            axes[i + 1, 0].set_ylabel(f"$|{name}|$ [{unit}]")
         axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
-        fig.suptitle("Theorem 1: error norm vs bound, TS-exact noise-free run ($T$: dashed)")
+        fig.suptitle("Theorem 1: error vs bound (34), TS-exact noise-free run ($T$: dashed); "
+                     "rows 2-5: each state's error in its unit")
     return fig
 
 

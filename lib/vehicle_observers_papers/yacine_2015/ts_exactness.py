@@ -3,7 +3,9 @@
 - :func:`yacine_exactness`: the 8-rule TS model (24) of Yacine 2015 against the nonlinear
   transformed model (13) along a trajectory inside the sector (right-hand sides and
   simulated trajectories), and what happens outside it.
-- :func:`revs_fig1`: Yacine 2015 Fig. 1 analogue on the Revs 250 LM log.
+- :func:`emulated_fig1`: Yacine 2015 Fig. 1 on the paper's own car and sensors (an emulated
+  Satory run, :func:`vehicle_observers.data.scenarios.emulated_satory`): no parameter fitted.
+- :func:`revs_fig1`: Yacine 2015 Fig. 1 analogue on the Revs 250 LM log (another car).
 - :func:`bicycle_exactness`: Ichalal 2011 Fig. 2 analogue (nonlinear bicycle vs its TS form).
 - figures: :func:`tyre_sector_figure`, :func:`exactness_figure`, :func:`legends_outside`, and
   the teaching figures of the sector construction (:func:`sector_sweep_figure`,
@@ -12,7 +14,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -23,6 +25,7 @@ from vehicle_observers.data.identification import identify_friction
 from vehicle_observers.data.logs import DriveLog, despike
 from vehicle_observers.models import bicycle, lateral
 from vehicle_observers.models.lateral import LateralParams
+from vehicle_observers.models.tires import LinearTire
 from vehicle_observers.models.ts import SectorTS
 from vehicle_observers.results.plotting import PALETTE, TRUTH
 from vehicle_observers.results.tables import show_table
@@ -157,6 +160,91 @@ def revs_fig1(base: LateralParams, linear: LateralParams, log: DriveLog,
             "delta": delta}
 
 
+def emulated_fig1(p: LateralParams, ts: SectorTS, log: DriveLog, t_from: float = 1.0) -> dict:
+    """Yacine 2015 Fig. 1 on the paper's configuration: open-loop models driven by the
+    *measured* steering and speed of an emulated run of the paper's car (its parameters, its
+    sensors at 1 kHz with their noise), compared with the measured yaw rate (gyro) and the
+    true lateral velocity. Nothing is fitted: every parameter is the paper's (Table I, the
+    sector bounds of Sec. IV) or the Pacejka tyres chosen so that the sector bounds hold.
+
+    Models (all from ``[v_y, r] = 0`` at the start of the run, the car at rest):
+
+    * ``"TS, relaxation"``: the TS form (24) with the printed sector ``ts`` integrated by
+      itself (premises from its own state, RK4, 10 sub-steps per sample);
+    * ``"nonlinear, no relaxation"``: model (1) with the exact slip (3) and Pacejka (7);
+    * ``"linear bicycle"``: model (1) with linear tyres of the paper's zero-slip stiffnesses
+      ``M_f1, M_r1`` (the upper sector bounds) and small-angle slip (4), the open-loop baseline.
+
+    Parameters
+    ----------
+    p : the car of the models (the paper's: ``yacine_2015.constants.params``).
+    ts : the TS model (24) with the paper's bounds (``constants.ts_model()``).
+    log : emulated run (``scenarios.emulated_satory``) with measured ``delta`` [rad], ``vx``
+        [m/s], ``yaw_rate`` [rad/s] and true ``vy`` [m/s], shape (N,).
+    t_from : fits computed on ``t - t[0] > t_from`` [s] (the first second at 0.2 m/s is the
+        car pulling away).
+
+    Returns
+    -------
+    dict with ``models`` ``{name: (N, 2) [v_y, r]}``, ``fits`` (as :func:`revs_fig1`),
+    ``n_out_of_bounds`` (samples where the TS premises left the printed sector: the TS form
+    is then clipped, not exact) and ``alpha_max_deg`` (largest slip of the TS run [deg]).
+    """
+    x_ts, oob = lateral.simulate_ts(ts, np.zeros(4), log.delta, log.vx, log.dt, p)
+    X_nl = lateral.simulate_s1([0.0, 0.0], log.delta, log.vx, log.dt, p, exact=True,
+                               relaxation=False)
+    lin = replace(p, tire_f=LinearTire(float(ts.zmax[1])), tire_r=LinearTire(float(ts.zmax[0])),
+                  name=f"{p.name}, linear tyres")
+    X_lin = lateral.simulate_s1([0.0, 0.0], log.delta, log.vx, log.dt, lin, exact=False,
+                                relaxation=False)
+    models = {"nonlinear, no relaxation": X_nl[:, :2], "TS, relaxation": x_ts[:, :2],
+              "linear bicycle": X_lin[:, :2]}
+    af, ar = lateral.slip_angles(x_ts[:, 0], x_ts[:, 1], log.delta, log.vx, p, exact=False)
+    mask = log.t - log.t[0] > t_from
+    return {"models": models, "fits": _fits(models, log, mask), "n_out_of_bounds": int(oob.sum()),
+            "alpha_max_deg": float(np.degrees(max(np.abs(af).max(), np.abs(ar).max()))),
+            "t_from": t_from}
+
+
+def fig1_metrics(res: dict, prefix: str, where: str) -> dict:
+    """The metrics of one :func:`emulated_fig1` result as ``{name: (value, unit, note)}``: the
+    fits of every model (:func:`revs_fit_metrics` naming), the samples of the TS run outside
+    the printed sector and its largest slip angle [deg]; ``where`` names the run in the notes."""
+    out = revs_fit_metrics(res["fits"], prefix, where)
+    out[f"{prefix}_ts_out_of_bounds"] = (res["n_out_of_bounds"], "",
+                                         f"samples of the TS run outside the printed sector ({where})")
+    out[f"{prefix}_alpha_max_deg"] = (res["alpha_max_deg"], "deg",
+                                      f"largest slip angle of the TS run ({where})")
+    return out
+
+def fig1_figure(log: DriveLog, models: dict, title: str, t_window=None):
+    """Fig. 1 layout: yaw rate (measured and models) and lateral velocity (truth and models)
+    [rad/s, m/s], then each model's error against them; ``t_window`` ``(t0, t1)`` [s] zooms
+    on a part of the run. ``models`` ``{name: (N, 2) [v_y, r]}``."""
+    sel = np.ones(len(log.t), bool) if t_window is None else (log.t >= t_window[0]) & (log.t <= t_window[1])
+    t = log.t[sel]
+    styles = {"nonlinear, no relaxation": dict(ls="--", color=TRUTH, lw=1.0),
+              "TS, relaxation": dict(color=PALETTE[0], lw=0.9),
+              "linear bicycle": dict(color=PALETTE[1], lw=0.8)}
+    fig, axes = plt.subplots(4, 1, sharex=True, figsize=(10.5, 8.0),
+                             gridspec_kw={"height_ratios": [2, 1, 2, 1]})
+    for k, (ref, ref_lab, lab, unit) in enumerate(((log.yaw_rate, "measured (gyro)", "r", "rad/s"),
+                                                    (log.vy, "truth", "v_y", "m/s"))):
+        ax, ae = axes[2 * k + 1 - 1], axes[2 * k + 1]
+        ax.plot(t, ref[sel], color="0.6", lw=2.0, label=ref_lab)
+        for name, X in models.items():
+            col = 1 - k                        # X = [v_y, r]: column 1 is r, column 0 is v_y
+            ax.plot(t, X[sel, col], label=name, **styles.get(name, {}))
+            ae.plot(t, X[sel, col] - ref[sel], **styles.get(name, {}))
+        ax.set_ylabel(f"${lab}$ [{unit}]")
+        ae.set_ylabel(f"model $-$ {ref_lab.split()[0]} [{unit}]")
+        ae.axhline(0, color="0.6", lw=0.5)
+        ax.legend(fontsize=7)
+    axes[-1].set_xlabel("$t$ [s]")
+    fig.suptitle(title)
+    return legends_outside(fig)
+
+
 #: metric-name key of each model of :func:`revs_fig1`
 FIT_KEYS = {"nonlinear, no relaxation": "nl", "TS, relaxation": "ts", "linear bicycle": "lin"}
 _FIT_UNITS = {"yaw_rmse": "rad/s", "vy_rmse": "m/s"}
@@ -281,10 +369,11 @@ def exactness_figure(t, x_nl, x_ts, states: list[tuple[str, str]], title: str,
     for ax in axes[-1]:
         ax.set_xlabel("$t$ [s]")
     fig.suptitle(title)
-    top = 1.0 - 0.75 / fig.get_figheight()
-    fig.legend(*axes[i0, 0].get_legend_handles_labels(), loc="upper center", ncol=2,
-               bbox_to_anchor=(0.5, top + 0.2 / fig.get_figheight()), frameon=False)
-    fig.tight_layout(rect=(0, 0, 1, top))
+    h = fig.get_figheight()
+    # the legend goes below the x labels, in a strip of its own (never over a panel)
+    fig.legend(*axes[i0, 0].get_legend_handles_labels(), loc="lower center", ncol=2,
+               bbox_to_anchor=(0.5, 0.0), frameon=False)
+    fig.tight_layout(rect=(0, 0.35 / h, 1, 1.0 - 0.1 / h))
     return fig
 
 
