@@ -1034,7 +1034,7 @@ def fig_jacobian_bounds(jac: dict):
 
 
 def _labels(a: float, R: float) -> dict:
-    return {"noreg": "no region", "reg": f"region a={a:g}, R={R:g}"}
+    return {"noreg": "no region", "reg": f"region $\\lambda$={a:g}, R={R:g}"}
 
 
 def fig_poles(designs: dict, a: float, R: float):
@@ -1243,8 +1243,8 @@ def fig_region_sweep(sws: dict, a: float, R: float):
 # ------------------------------------------------------------------ teaching -------------
 def transient_explorer(bp, ts, vertices, C, T: float = 1.5, dt: float = 1e-3, xhat0=XHAT0):
     """A drawing function for :func:`vehicle_observers.results.teaching.live_figure`:
-    ``draw(a, R)`` solves the LMIs (23) alone (once) and (23)+(35)+(36) for the region
-    ``Re z < -a``, ``|z| < R`` [1/s] (r = 1: the same feasible set as r = 8), runs both observers
+    ``draw(lam, R)`` solves the LMIs (23) alone (once) and (23)+(35)+(36) for the region
+    ``Re z < -lam``, ``|z| < R`` [1/s] (``lam`` the course's decay rate, the paper's ``a``) (r = 1: the same feasible set as r = 8), runs both observers
     from ``xhat(0) = xhat0`` over ``[0, T)`` s and returns a figure: the eigenvalues of every
     vertex pair with the region, and the errors ``|e2|`` [1/m], ``|e4|`` [rad/s] of the two
     unmeasured states (log scale) with and without the region. An infeasible region gives the
@@ -1255,18 +1255,19 @@ def transient_explorer(bp, ts, vertices, C, T: float = 1.5, dt: float = 1e-3, xh
     d0 = dmvt.design_dmvt_observer(vertices, C, r=1, name="DMVT (23), no region")
     run0 = dmvt.simulate_bicycle_observer(bp, t, ts, d0.L, C, xhat0=xhat0)
 
-    def draw(a: float, R: float):
+    def draw(lam: float, R: float):
+        a = lam
         runs, poles = {"noreg": run0}, {"noreg": d0}
         try:
             d = dmvt.design_dmvt_observer(vertices, C, r=1, region=region(a, R),
                                           name="DMVT (23)+(35)+(36)")
             runs["reg"] = dmvt.simulate_bicycle_observer(bp, t, ts, d.L, C, xhat0=xhat0)
             poles["reg"] = d
-            title = (f"a = {a:g}, R = {R:g} 1/s: min damping {d0.poles.min_damping:.2f} -> "
-                     f"{d.poles.min_damping:.2f}, largest |lambda| {d0.poles.max_modulus:.0f} -> "
-                     f"{d.poles.max_modulus:.1f} 1/s")
+            title = (f"$\\lambda$ = {a:g}, R = {R:g} 1/s: min damping "
+                     f"{d0.poles.min_damping:.2f} -> {d.poles.min_damping:.2f}, largest |z| "
+                     f"{d0.poles.max_modulus:.0f} -> {d.poles.max_modulus:.1f} 1/s")
         except InfeasibleDesign:
-            title = f"a = {a:g}, R = {R:g} 1/s: no certified design (LMIs infeasible)"
+            title = f"$\\lambda$ = {a:g}, R = {R:g} 1/s: no certified design (LMIs infeasible)"
         fig, axs = plt.subplots(1, 3, figsize=(12, 3.6),
                                 gridspec_kw={"width_ratios": [1, 1.3, 1.3]})
         lab = _labels(a, R)
