@@ -1357,7 +1357,7 @@ def reaching_animation(run: dict, Xs, t_end: float = 0.32, frames: int = 24):
     m = t <= t_end
     ex_ = Xs[m, 3] - run["res"].x2[m, 0]
     ey = Xs[m, 4] - run["res"].x2[m, 1]
-    fig, ax = plt.subplots(figsize=(4.4, 3.2))
+    fig, ax = plt.subplots(figsize=(5.0, 3.4))
     ax.axhline(0, color=C_SAT, lw=1.6, label=r"surface $\tilde v_y = 0$")
     ax.axvline(0, color=C_EKF, lw=1.6, ls="--", label=r"surface $\tilde v_x = 0$")
     line, = ax.plot([], [], color=C_PAPER, lw=1.4)
@@ -1374,7 +1374,7 @@ def reaching_animation(run: dict, Xs, t_end: float = 0.32, frames: int = 24):
         k = idx[i]
         line.set_data(ex_[:k], ey[:k])
         dot.set_data([ex_[k - 1]], [ey[k - 1]])
-        title.set_text(f"sliding surfaces being reached, t = {1e3 * t[k - 1]:.0f} ms")
+        title.set_text(f"reaching the surfaces, t = {1e3 * t[k - 1]:.0f} ms")
         return line, dot, title
 
     fig.tight_layout()
