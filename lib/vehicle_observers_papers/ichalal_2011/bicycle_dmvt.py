@@ -1244,7 +1244,8 @@ def fig_region_sweep(sws: dict, a: float, R: float):
 def transient_explorer(bp, ts, vertices, C, T: float = 1.5, dt: float = 1e-3, xhat0=XHAT0):
     """A drawing function for :func:`vehicle_observers.results.teaching.live_figure`:
     ``draw(lam, R)`` solves the LMIs (23) alone (once) and (23)+(35)+(36) for the region
-    ``Re z < -lam``, ``|z| < R`` [1/s] (``lam`` the course's decay rate, the paper's ``a``) (r = 1: the same feasible set as r = 8), runs both observers
+    ``Re z < -lam``, ``|z| < R`` [1/s] (``lam`` the course's decay rate, the paper's ``a``;
+    r = 1: the same feasible set as r = 8), runs both observers
     from ``xhat(0) = xhat0`` over ``[0, T)`` s and returns a figure: the eigenvalues of every
     vertex pair with the region, and the errors ``|e2|`` [1/m], ``|e4|`` [rad/s] of the two
     unmeasured states (log scale) with and without the region. An infeasible region gives the

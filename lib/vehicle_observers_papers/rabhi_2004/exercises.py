@@ -73,7 +73,7 @@ def check_1(lam3_for, man, Xs):
     except Exception:
         got_.clear()
     hint = "return the two gains (front, rear) in rad/s^2"
-    for tr, (lam, tf, trr) in got_.items():
+    for tr, (lam, _tf, _trr) in got_.items():
         need = lam3_required(Xs, tr)
         for w, name in enumerate(("front", "rear")):
             if not np.isclose(lam[w], need[w], rtol=1e-3):
