@@ -1148,8 +1148,8 @@ def fig_transient_grading(tg: dict, a: float, R: float, a_sel: float, R_sel: flo
     with the knobs' region ``a``, ``R`` and with the chosen region ``a_sel``, ``R_sel`` [1/s];
     medians marked. (2, 4) axes."""
     keys = ("noreg", "reg", "sel")
-    labels = {"noreg": "no region", "reg": f"knobs a={a:g}, R={R:g}",
-              "sel": f"chosen a={a_sel:g}, R={R_sel:g}"}
+    labels = {"noreg": "no region", "reg": f"knobs $\\lambda$={a:g}, R={R:g} 1/s",
+              "sel": f"chosen $\\lambda$={a_sel:g}, R={R_sel:g} 1/s"}
     cols = {"noreg": COLORS["noreg"], "reg": "0.6", "sel": COLORS["reg"]}
     fig, axs = plt.subplots(2, 4, figsize=(13, 6.2), sharey="row")
     for row, (what, ylab) in enumerate((("swing", "swing past zero / peak [-]"),
