@@ -734,3 +734,34 @@ def test_premise_error_figure_against_direct_computation(setup):
         assert fig.axes[0].get_lines()[j].get_ydata()[0] == pytest.approx(
             100 * z10 / (ts.zmax[0] - ts.zmin[0]), rel=1e-9)
     plt.close(fig)
+
+
+def test_figs_4_and_5_plot_what_the_claims_are_graded_on(setup):
+    """fig5_region: each box's median line is the median swing / settling of that design and
+    state, the threshold line is SWING_OSC; fig4_no_region: the bar lengths are the largest
+    median swings of the unshaped family and of the chosen region design. Catches a figure
+    that shows another quantity than the graded one (as the old fig5_region did)."""
+    import matplotlib.pyplot as plt
+
+    mod, jac, designs, _ = setup
+    fam = ds.feasible_family(jac["jts"].vertices, C, settings=ds.FAMILY[1:3])
+    tg = ds.transient_grading(BP, mod["ts"], {**designs, "sel": designs["reg"]}, fam, C, n=3,
+                              seed=0, T=1.0)
+    fig = ds.fig_transient_grading(tg, A_REG, R_REG, A_REG, R_REG)
+    axs = np.array(fig.axes).reshape(2, 4)
+    for row, what in enumerate(("swing", "settling")):
+        for i in range(4):
+            meds = [ln.get_ydata()[0] for ln in axs[row, i].get_lines()
+                    if ln.get_color() == "k" and ln.get_linewidth() == 1.6]
+            want = [np.median(tg["runs"][k][what][:, i]) for k in ("noreg", "reg", "sel")]
+            np.testing.assert_allclose(meds, want)
+    assert any(ln.get_ydata()[0] == ds.SWING_OSC for ln in axs[0, 0].get_lines())
+    plt.close(fig)
+    fig = ds.fig_feasible_family(tg, fam)
+    widths = [p.get_width() for p in fig.axes[0].patches]
+    want = [np.median(tg["family_runs"][k]["swing"], axis=0).max() for k in fam]
+    want.append(np.median(tg["runs"]["sel"]["swing"], axis=0).max())
+    np.testing.assert_allclose(widths, want)
+    np.testing.assert_allclose([p.get_width() for p in fig.axes[1].patches],
+                               [d.poles.min_damping for d in fam.values()])
+    plt.close(fig)
