@@ -39,30 +39,48 @@ def test_check_1_rejects_a_constant_and_the_full_rank():
 
 
 # ------------------------------------------------------------------ exercise 2 -------------
-def xi_bounds(x2_lim, x3_lim):
-    g2, g3 = np.meshgrid(np.linspace(*x2_lim, 201), np.linspace(*x3_lim, 201))
-    X = np.column_stack([np.zeros(g2.size), g2.ravel(), g3.ravel(), np.zeros(g2.size)])
-    J = b.jacobian(X, np.zeros(len(X)), BP)
-    return [[J[:, 3, 1].min(), J[:, 3, 1].max()], [J[:, 3, 2].min(), J[:, 3, 2].max()]]
+def dmvt_point(x, xhat, u):
+    from scipy.optimize import brentq
+
+    e = x - xhat
+    df = b.rhs(x, u, BP)[0, 3] - b.rhs(xhat, u, BP)[0, 3]
+
+    def g(s):
+        return b.jacobian(xhat + s * e, u, BP)[0, 3] @ e - df
+
+    grid = np.linspace(0.0, 1.0, 201)
+    vals = np.array([g(s) for s in grid])
+    k = int(np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0])
+    s = brentq(g, grid[k], grid[k + 1], xtol=1e-14)
+    xi = b.jacobian(xhat + s * e, u, BP)[0, 3, 1:3]
+    return s, bool(all(lo <= v <= hi for v, (lo, hi) in zip(xi, ex.XI_BOUNDS_2)))
 
 
-def test_check_2_accepts_the_solution_and_a_known_box():
-    assert _run(ex.check_2, xi_bounds).status == CORRECT
-    # x2 = 0: xi1 = (v^2/p) cos x3, xi2 = (g/p) cos x3; on x3 in [0.2, 0.6] both decrease
-    box = xi_bounds((0.0, 0.0), (0.2, 0.6))
-    np.testing.assert_allclose(box[0], BP.v**2 / BP.p * np.cos([0.6, 0.2]), rtol=1e-12)
-    np.testing.assert_allclose(box[1], BP.g / BP.p * np.cos([0.6, 0.2]), rtol=1e-12)
+def test_check_2_accepts_the_mean_value_point_and_knows_which_lie_inside():
+    """The worked solution passes; its points satisfy the mean value equation of f4 checked
+    here with the analytic Jacobian (31) (the checker uses finite differences of its own
+    model), and only the first case lies inside the trajectory bounds."""
+    out = _run(ex.check_2, dmvt_point)
+    assert out.status == CORRECT
+    got = [dmvt_point(np.array(x), np.array(xh), u) for x, xh, u in ex.CASES_2]
+    assert [g[1] for g in got] == [True, False, False]
+    for (x, xh, u), (s, _) in zip(ex.CASES_2, got, strict=True):
+        x, xh = np.array(x), np.array(xh)
+        xi = xh + s * (x - xh)
+        grad = b.jacobian(xi, u, BP)[0, 3]
+        assert grad @ (x - xh) == pytest.approx(b.rhs(x, u, BP)[0, 3] - b.rhs(xh, u, BP)[0, 3],
+                                                rel=1e-8)
 
 
-def test_check_2_rejects_the_corners_only_and_the_empty_stub():
-    def corners(x2_lim, x3_lim):
-        X = np.array([[0, a, c, 0] for a in x2_lim for c in x3_lim], dtype=float)
-        J = b.jacobian(X, np.zeros(4), BP)
-        return [[J[:, 3, 1].min(), J[:, 3, 1].max()], [J[:, 3, 2].min(), J[:, 3, 2].max()]]
-
-    # the box (-0.2..0.2) x (-1..1) has its maximum of xi2 inside (x3 = 0): corners miss it
-    assert _run(ex.check_2, corners).status == WRONG
-    assert _run(ex.check_2, lambda a, c: ...).status == EMPTY
+def test_check_2_rejects_the_midpoint_a_wrong_inside_and_the_empty_stub():
+    """The midpoint s = 0.5 misses the mean value equation (f4 is not quadratic); the right s
+    with 'inside' always True is wrong for the cases outside; the hint names the case."""
+    out = _run(ex.check_2, lambda x, xh, u: (0.5, True))
+    assert out.status == WRONG and "case" in out.message and "mean-value" in out.message
+    out = _run(ex.check_2, lambda x, xh, u: (dmvt_point(x, xh, u)[0], True))
+    assert out.status == WRONG and "case 2" in out.message and "inside should be False" in out.message
+    assert _run(ex.check_2, lambda x, xh, u: (1.5, True)).status == WRONG
+    assert _run(ex.check_2, lambda x, xh, u: ...).status == EMPTY
 
 
 # ------------------------------------------------------------------ exercise 3 -------------
@@ -73,28 +91,24 @@ def vertices():
     return jacobian_ts_from_samples(b.jacobian(X, U, BP), names=["xi1", "xi2"]).vertices
 
 
-def test_check_3_accepts_the_solution_and_rejects_designs_that_miss_the_region(vertices):
-    def solution(T_s, R):
-        a = np.log(50.0) / T_s
-        return a, dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(a, R)).L
+def test_check_3_accepts_a_region_that_guarantees_the_specification(vertices):
+    """lam = 4, R = 8 guarantees settling (lam >= ln 50 / 1.2 = 3.26) and damping
+    (lam / R = 0.5 >= 0.45); the checker's eigenvalues of every vertex pair confirm it."""
+    d = dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(4.0, 8.0))
+    assert _run(ex.check_3, lambda: (4.0, 8.0, d.L), vertices, C).status == CORRECT
 
-    assert _run(ex.check_3, solution, vertices, C).status == CORRECT
-    # the 2 % settling rule by hand: a = ln(50) / T_s, 3.91 1/s for 1 s
-    assert np.log(50.0) == pytest.approx(3.912, abs=1e-3)
 
-    # right a, but a gain designed without the region: its fast poles leave the disk
-    def no_region(T_s, R):
-        return np.log(50.0) / T_s, dmvt.design_dmvt_observer(vertices, C, r=1).L
-
-    assert _run(ex.check_3, no_region, vertices, C).status == WRONG
-
-    # a 5 % settling rule (a = ln(20) / T_s) with its design: a wrong a
-    def five_pct(T_s, R):
-        a = np.log(20.0) / T_s
-        return a, dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(a, R)).L
-
-    assert _run(ex.check_3, five_pct, vertices, C).status == WRONG
-    assert _run(ex.check_3, lambda T_s, R: ..., vertices, C).status == EMPTY
+def test_check_3_rejects_a_slow_or_underdamped_design_and_an_unguaranteed_region(vertices):
+    """No region (damping about 0.3): the damping hint; a slow region (lam = 0.5): the
+    settling hint in seconds; the good gain with a region that does not guarantee the
+    specification: the region hint."""
+    d0 = dmvt.design_dmvt_observer(vertices, C, r=1)
+    out = _run(ex.check_3, lambda: (0.0, 100.0, d0.L), vertices, C)
+    assert out.status == WRONG and ("damping" in out.message or "settles" in out.message)
+    d = dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(4.0, 8.0))
+    out = _run(ex.check_3, lambda: (1.0, 8.0, d.L), vertices, C)
+    assert out.status == WRONG and "does not guarantee" in out.message
+    assert _run(ex.check_3, lambda: ..., vertices, C).status == EMPTY
 
 
 def _run(checker, *args):

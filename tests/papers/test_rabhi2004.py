@@ -78,3 +78,51 @@ def test_mu_step_halves_the_slip_stiffness():
     to mu, the observer's model (from mu = 1) stays: its stiffness is now twice too large."""
     assert R.planar.with_(mu=0.5).C_alpha_f == pytest.approx(0.5 * R.planar.C_alpha_f)
     assert R.planar.with_(mu=0.5).C_kappa_r == pytest.approx(0.5 * R.planar.C_kappa_r)
+
+
+def test_library_adaptation_law_is_the_printed_stabilising_one():
+    """One step of the library's observer (10) with (20)-(22), on the sliding surfaces (the
+    measured channels at their estimates, so the switching terms vanish and the adaptation is
+    driven by the filtered equivalent injection x~4): the parameter update equals
+    dt P Psi(X^)' x~4 with Psi written here from the force model (8) (R-A5), and along
+    x~4' = -A x~4 + Psi theta~ (theta~ = theta - theta^) it cancels the cross term of
+    V4' for V4 = x~4'x~4/2 + theta~'P^-1 theta~/2, whatever theta~: V4' + x~4' A x~4 = 0. The
+    flipped gains (-P) double the cross term instead. Catches an adaptation law of the wrong
+    sign, a transposed regressor or a regressor built from the wrong slips."""
+    mdl = smo.ForceObserverModel.from_params(R.planar)
+    dt = 5e-4
+    rng = np.random.default_rng(11)
+    y = np.array([[20.0, 0.3, 0.1, 20.0 / 0.3 + 1.0, 20.0 / 0.3 - 0.5]] * 2)   # vx vy r wf wr
+    u = np.array([[0.05, 200.0, -100.0]] * 2)                                 # delta Tf Tr
+    t = np.array([0.0, dt])
+    x4 = np.array([800.0, -400.0, 1500.0, 1200.0])
+    theta = np.array([5.0, 100.0, 5.0, -50.0, 3.0, 20.0, 3.0, 10.0])          # inside the box
+    q = rng.normal(size=4) * 30.0                                             # x~4 on the surfaces
+    vx, vy, r, wf, wr = y[0]
+    delta = u[0, 0]
+    slip = np.array([mdl.r_f * wf - vx, mdl.r_r * wr - vx, vx * delta - vy - mdl.l_f * r,
+                     mdl.l_r * r - vy])
+    C = np.array([mdl.C_kf, mdl.C_kr, mdl.C_af, mdl.C_ar])
+    Psi = np.zeros((4, 8))
+    for i in range(4):
+        Psi[i, 2 * i], Psi[i, 2 * i + 1] = C[i] * slip[i] - vx * x4[i], vx
+    for sign in (1.0, -1.0):
+        gains = R.paper_gains.with_(P=tuple(sign * np.asarray(R.P_FULL)), theta_lo=(-1e9,) * 8,
+                                    theta_hi=(1e9,) * 8)
+        obs = smo.ForceObserver(mdl, gains, dt)
+        z = np.concatenate([y[0, :3], y[0, 3:5], x4, theta, q])
+        z1 = obs.step(z, 1, t, u, y)
+        a = np.exp(-dt / gains.tau_f)
+        e4f = a * q                                          # the switching terms are zero
+        th_dot = (z1[9:17] - theta) / dt
+        np.testing.assert_allclose(th_dot, sign * np.asarray(R.P_FULL) * (Psi.T @ e4f),
+                                   rtol=1e-9)
+        P = np.asarray(R.P_FULL)
+        for _ in range(5):
+            th_err = rng.normal(size=8)
+            cross = e4f @ Psi @ th_err
+            excess = cross - th_err @ (th_dot / P)          # V4' + x~4' A x~4
+            if sign > 0:
+                assert abs(excess) <= 1e-9 * abs(cross)     # V4' = -x~4' A x~4 <= 0
+            else:
+                assert excess == pytest.approx(2 * cross, rel=1e-9)

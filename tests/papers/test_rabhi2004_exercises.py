@@ -14,36 +14,34 @@ def truth():
     return EX.part_a_truth(3.0)
 
 
+
 def _status(key):
     return teaching.RESULTS[key]
 
 
 # ------------------------------------------------------------------ Exercise 1 ------------
-def _reaching(e0, lam, d=0.0):
-    return abs(e0) / (lam - d * np.sign(e0))
-
-
-def test_scalar_reaching_time_is_the_closed_form():
-    """The scipy event solution of e' = -lam sign(e) + d is |e0| / (lam - d sign(e0))."""
-    for c in ex.REACH_CASES:
-        assert ex.scalar_reaching_time(*c) == pytest.approx(_reaching(*c), rel=1e-9)
-    with pytest.raises(ValueError, match="lam"):
-        ex.scalar_reaching_time(1.0, 1.0, 2.0)
+def test_lam3_required_from_the_reaching_condition(truth):
+    """The gains follow |e0| / t_r + (r/J) max |F_x| (written here from the model constants),
+    and a sign() observer with them reaches both wheel-speed surfaces within t_r: catches a
+    bound that forgets the disturbance or uses the wrong wheel's constants."""
+    man, Xs = truth
+    p = R.planar
+    for tr in ex.DEADLINES:
+        lam = ex.lam3_required(Xs, tr)
+        want = [5.0 / tr + p.r_f / p.J_f * np.abs(Xs[:, 8]).max(),
+                5.0 / tr + p.r_r / p.J_r * np.abs(Xs[:, 9]).max()]
+        np.testing.assert_allclose(lam, want, rtol=1e-12)
+        run = EX.part_a_run(man, Xs, R.paper_gains.with_(lam3=tuple(lam)))
+        assert max(run["t_reach_omega_f"], run["t_reach_omega_r"]) <= tr
 
 
 def test_check_1(truth):
     man, Xs = truth
-
-    def measured(lam3):
-        return EX.part_a_run(man, Xs, R.paper_gains.with_(lam3=(lam3, lam3)))["t_reach_omega_f"]
-
-    ex.check_1(_reaching, measured, man, Xs)
+    ex.check_1(lambda tr: ex.lam3_required(Xs, tr), man, Xs)
     assert _status("05.1") == teaching.CORRECT
-    ex.check_1(lambda e0, lam, d=0.0: abs(e0) / lam, measured, man, Xs)   # ignores d
+    ex.check_1(lambda tr: np.asarray(R.x3_err0) / tr, man, Xs)   # forgets the disturbance
     assert _status("05.1") == teaching.WRONG
-    ex.check_1(_reaching, lambda lam3: 5.0 / lam3, man, Xs)   # the bound, not the run
-    assert _status("05.1") == teaching.WRONG
-    ex.check_1(lambda e0, lam, d=0.0: None, lambda lam3: None, man, Xs)
+    ex.check_1(lambda tr: ..., man, Xs)
     assert _status("05.1") == teaching.EMPTY
 
 
@@ -81,13 +79,28 @@ def _lost_pattern():
     return np.linalg.svd(K[4:7, 0:4])[2][-1]
 
 
-def test_check_3():
+def test_check_4():
     assert [_n_unobservable(w) for w in ex.SENSOR_SETS] == [2, 0, 0]
-    ex.check_3(_n_unobservable, _lost_pattern)
+    ex.check_4(_n_unobservable, _lost_pattern)
+    assert _status("05.4") == teaching.CORRECT
+    ex.check_4(lambda w: 0, _lost_pattern)            # forgets the warp
+    assert _status("05.4") == teaching.WRONG
+    ex.check_4(_n_unobservable, lambda: np.ones(4))   # heave is observable
+    assert _status("05.4") == teaching.WRONG
+    ex.check_4(lambda w: None, lambda: None)
+    assert _status("05.4") == teaching.EMPTY
+
+
+# ------------------------------------------------------------------ Exercise 3 ------------
+def test_check_3_the_printed_law_cancels_the_cross_term():
+    """theta^' = P Psi' x~4 (the law printed below (22)) is accepted; the flipped law and no
+    adaptation are rejected, the flipped one with the doubled-cross-term hint."""
+    ex.check_3(lambda Psi, e4, P: P * (Psi.T @ e4))
     assert _status("05.3") == teaching.CORRECT
-    ex.check_3(lambda w: 0, _lost_pattern)            # forgets the warp
+    out = teaching.RESULTS
+    ex.check_3(lambda Psi, e4, P: -P * (Psi.T @ e4))
+    assert out["05.3"] == teaching.WRONG
+    ex.check_3(lambda Psi, e4, P: np.zeros(8))
     assert _status("05.3") == teaching.WRONG
-    ex.check_3(_n_unobservable, lambda: np.ones(4))   # heave is observable
-    assert _status("05.3") == teaching.WRONG
-    ex.check_3(lambda w: None, lambda: None)
+    ex.check_3(lambda Psi, e4, P: ...)
     assert _status("05.3") == teaching.EMPTY

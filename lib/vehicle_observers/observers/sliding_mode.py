@@ -184,7 +184,7 @@ class ForceObserverGains:
     lam2 (3,) [m/s^2, m/s^2, rad/s^2] > 0 must exceed ``|Omega x~4|`` (13);
     lam3 (2,) [rad/s^2] > 0 must exceed ``|H x~4x|`` (16);
     k (4,) [1/s] >= 0 the diagonal of ``K`` in ``A = K + v_x F`` (19);
-    P (8,) adaptation gains (any sign: the paper's printed sign is ``-P``); theta bounds
+    P (8,) adaptation gains (positive: the printed law; ``-P`` flips it); theta bounds
     (8,) for the projection, ``theta_lo < theta_hi``;
     phi2 (3,), phi3 (2,) > 0 boundary-layer widths (mode SAT); tau_f [s] > 0 injection filter.
     """

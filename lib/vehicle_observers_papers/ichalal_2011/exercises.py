@@ -1,19 +1,18 @@
-"""Exercise checkers of notebook 04 (Ichalal, Arioui, Mammar, MED 2011: autonomous bicycle,
+"""Exercise checkers of lesson 04 (Ichalal, Arioui, Mammar, MED 2011: autonomous bicycle,
 DMVT observer, LMI pole regions).
 
 Each ``check_N(answer, ...)`` calls the student's function on several inputs (so a hard-coded
-number fails), computes the expected answer **independently** of the notebook's solution (a
-transcription of the model (25) written here, finite differences, eigenvalues) and shows one
-line through :func:`vehicle_observers.results.teaching.check` (``show=False``: no display,
-the :class:`~vehicle_observers.results.teaching.Outcome` is returned).
+number fails), computes the expected answer **independently** of the solutions notebook (a
+transcription of the model (25) written here, finite differences, eigenvalues, root finding)
+and shows one line through :func:`vehicle_observers.results.teaching.check`. Hints diagnose
+(which case or output is wrong, by how much, in its unit); they never give the code.
 
 1. ``check_1(observability_rank)``: rank of the observability matrix of the bicycle (25)
    linearised at ``(x, u)`` for a sensor matrix ``C`` (Jacobian (31)).
-2. ``check_2(xi_bounds)``: bounds (14) of the Jacobian entries ``xi1 = df4/dx2`` [m/s^2] and
-   ``xi2 = df4/dx3`` [1/s^2] of (31)-(33) over a box of states (the DMVT points of (11) lie on
-   segments inside the box).
-3. ``check_3(design_for_settling, vertices, C)``: half-plane shift ``a`` of (35) for a 2 %
-   settling time and a certified design whose closed-loop eigenvalues meet it.
+2. ``check_2(dmvt_point)``: the mean-value point of (11) on the segment ``[xhat, x]`` for the
+   roll-acceleration row ``f4`` and whether its Jacobian entries lie inside the bounds (14).
+3. ``check_3(design, vertices, C)``: a pole region (35)-(36) and a certified gain meeting a
+   2 % settling time and a damping specification.
 """
 
 from __future__ import annotations
@@ -71,69 +70,139 @@ def check_1(observability_rank, show: bool = True):
         s = np.linalg.svd(O, compute_uv=False)
         return int(np.sum(s > 1e-8 * s[0]))
 
+    want = [expected_rank(*c) for c in CASES_1]
+    names = ("both sensors at x = 0", "roll only at x = 0", "yaw only at x = 0",
+             "roll only at x3 = pi/2", "both sensors at x3 = pi/2")
+
     def answer():
         got = [observability_rank(np.array(x), u, C) for x, u, C in CASES_1]
         return None if _empty(got) else [int(g) for g in got]
 
-    return check("04.1", answer, [expected_rank(*c) for c in CASES_1],
-                 hint="A = bicycle.jacobian(x, u, params)[0] (shape (1, 4, 4) for one state); "
-                      "stack C, CA, CA^2, CA^3 and take numpy.linalg.matrix_rank", rtol=0, atol=0, show=show)
+    try:
+        got = answer()
+    except Exception:  # the checker reports the exception itself
+        got = None
+    hint = "the rank is an integer between 0 and 4 (number of observable directions)"
+    if got is not None and len(got) == len(want):
+        bad = [f"{n}: got {g}, expected {w}" for n, g, w in zip(names, got, want) if g != w]
+        if bad:
+            hint = ("wrong case(s): " + "; ".join(bad) + ". Check that A is the Jacobian at the "
+                    "given (x, u) and that the stacked matrix has 4 blocks C A^k, k = 0..3")
+    return check("04.1", answer, want, hint=hint, rtol=0, atol=0, show=show)
 
 
-#: boxes of exercise 2: ((x2 lo, x2 hi) [1/m], (x3 lo, x3 hi) [rad]); u = 0
-CASES_2 = (((-0.2, 0.2), (-1.0, 1.0)), ((0.0, 0.1), (0.2, 0.6)), ((-0.1, 0.05), (-0.3, 0.8)))
+def _f4(x, u):
+    return _f(x, u)[..., 3]
 
 
-def check_2(xi_bounds, show: bool = True):
-    """Exercise 04.2: ``xi_bounds(x2_lim, x3_lim)`` -> ``[[xi1 lo, xi1 hi], [xi2 lo, xi2 hi]]``
-    over the box (u = 0). Expected: finite-difference Jacobian of the model written here on a
-    301 x 301 grid of the box (corners included); relative tolerance 2e-3 (grid resolution)."""
-    def expected(x2_lim, x3_lim):
-        g2, g3 = np.meshgrid(np.linspace(*x2_lim, 301), np.linspace(*x3_lim, 301))
-        X = np.column_stack([np.zeros(g2.size), g2.ravel(), g3.ravel(), np.zeros(g2.size)])
-        v = _jacobian_fd(X, 0.0)[:, 3, 1:3]
-        return np.column_stack([v.min(0), v.max(0)])
-
-    def answer():
-        got = [xi_bounds(*c) for c in CASES_2]
-        return None if _empty(got) else np.array(got, dtype=float)
-
-    want = np.array([expected(*c) for c in CASES_2])
-    return check("04.2", answer, want, rtol=2e-3, atol=1e-3,
-                 hint="evaluate bicycle.jacobian on a fine grid of the box (x1 = x4 = 0, u = 0: "
-                      "they do not enter J[3, 1:3]) with the corners included, then min and max "
-                      "of J[:, 3, 1] and J[:, 3, 2]", show=show)
+def _grad_f4(x, u, h: float = 1e-6) -> np.ndarray:
+    return _jacobian_fd(x, u, h)[..., 3, :]
 
 
-#: (T_s [s], R [1/s]) cases of exercise 3
-CASES_3 = ((1.5, 10.0), (1.0, 12.0))
+#: (x, xhat, u) cases of exercise 2: a small error while the bicycle leans against its
+#: curvature (x2, x3 of opposite signs), an error at the start of a run (x = 0 side), and a
+#: rolled estimate far from the state
+CASES_2 = (((0.0, -0.1, 0.3, 0.0), (0.0, -0.09, 0.31, 0.1), 0.0),
+           ((0.0004, 0.043, 0.002, 0.19), (0.099, -0.05, 0.081, 0.62), 9.2),
+           ((0.0, 0.08, 0.4, 0.5), (0.0, -0.12, 1.2, -0.5), 0.0))
+#: the trajectory bounds (14) of the lesson's run: xi1 [m/s^2], xi2 [1/s^2] (both rows)
+XI_BOUNDS_2 = ((71.9, 167.1), (16.35, 33.4))
 
 
-def check_3(design_for_settling, vertices, C, show: bool = True):
-    """Exercise 04.3: ``design_for_settling(T_s, R)`` -> ``(a, L)``: ``a`` [1/s] the half-plane
-    shift of (35) that makes every mode decay to 2 % within ``T_s`` (``exp(-a T_s) = 0.02``),
-    ``L`` (4, 2) or (r, 4, 2) a gain designed with (23)+(35)+(36). Expected: ``a = ln(50)/T_s``
-    and, from the eigenvalues of ``A_i - L_j C`` computed here for every vertex of
-    ``vertices``, ``Re lambda < -a`` and ``|lambda| < R``."""
-    vertices = np.asarray(vertices, dtype=float)
+def check_2(dmvt_point, show: bool = True):
+    """Exercise 04.2: ``dmvt_point(x, xhat, u)`` -> ``(s, inside)``: ``s`` in [0, 1] with
+    ``f4(x) - f4(xhat) = grad f4(xi) . (x - xhat)`` at ``xi = xhat + s (x - xhat)`` (the
+    mean value theorem of (11) for the row ``f4``), and ``inside`` whether ``xi1``, ``xi2`` of
+    (32)-(33) at ``xi`` lie inside :data:`XI_BOUNDS_2`. Checked here: the mean-value equation
+    at the student's ``s`` (residual below 1e-6 of ``|f4(x) - f4(xhat)|`` + 1e-9), with the
+    model and a finite-difference gradient written here, and ``inside`` at that point."""
+    rows = []
 
     def answer():
+        rows.clear()
         out = {}
-        for Ts, R in CASES_3:
-            res = design_for_settling(Ts, R)
+        for n, (x, xh, u) in enumerate(CASES_2, start=1):
+            res = dmvt_point(np.array(x), np.array(xh), u)
             if res is None or res is Ellipsis or _empty(res):
                 return None
-            a, L = res
-            Ls = np.asarray(L, dtype=float).reshape(-1, 4, C.shape[0])
-            ev = np.array([np.linalg.eigvals(A - Lj @ C) for A in vertices for Lj in Ls])
-            out[f"T_s = {Ts:g} s"] = {"a": float(a),
-                                      "poles meet T_s": bool(ev.real.max() < -np.log(50) / Ts),
-                                      "poles inside |z| < R": bool(np.abs(ev).max() < R)}
+            s_, inside = res
+            x, xh = np.array(x), np.array(xh)
+            xi = xh + float(s_) * (x - xh)
+            df = _f4(x, u) - _f4(xh, u)
+            resid = abs(df - _grad_f4(xi, u) @ (x - xh)) / (abs(df) + 1e-9)
+            J = _jacobian_fd(xi, u)[3, 1:3]
+            want_in = bool(np.all([(lo <= j <= hi) for j, (lo, hi) in zip(J, XI_BOUNDS_2)]))
+            rows.append((float(s_), resid, J, want_in, bool(inside)))
+            out[f"case {n}"] = {"s in [0, 1]": bool(0.0 <= float(s_) <= 1.0),
+                                "mean-value equation holds": bool(resid < 1e-6),
+                                "inside judged right": bool(inside) == want_in}
         return out
 
-    want = {f"T_s = {Ts:g} s": {"a": np.log(50) / Ts, "poles meet T_s": True,
-                                "poles inside |z| < R": True} for Ts, R in CASES_3}
-    return check("04.3", answer, want, rtol=1e-3,
-                 hint="exp(-a T_s) = 0.02 gives a = ln(50) / T_s; then "
-                      "dmvt.design_dmvt_observer(vertices, C, r=1, region=ds.region(a, R)) and "
-                      "return (a, design.L)", show=show)
+    want = {f"case {n}": {"s in [0, 1]": True, "mean-value equation holds": True,
+                          "inside judged right": True} for n in range(1, len(CASES_2) + 1)}
+    try:
+        answer()
+    except Exception:
+        rows.clear()
+    hint = "return (s, inside): s a number in [0, 1], inside a bool"
+    for k, (s_, resid, J, want_in, got_in) in enumerate(rows):
+        if not 0.0 <= s_ <= 1.0:
+            hint = f"case {k + 1}: s = {s_:.3g} is off the segment [xhat, x] (s must be in [0, 1])"
+            break
+        if resid >= 1e-6:
+            hint = (f"case {k + 1}: at s = {s_:.4g} the two sides of the mean-value equation "
+                    f"differ by {100 * resid:.2g} % of f4(x) - f4(xhat); look for the s where "
+                    "their difference changes sign")
+            break
+        if want_in != got_in:
+            hint = (f"case {k + 1}: at your s, xi1 = {J[0]:.1f} m/s^2 and xi2 = {J[1]:.2f} "
+                    f"1/s^2, so inside should be {want_in}")
+            break
+    return check("04.2", answer, want, hint=hint, show=show)
+
+
+#: specification of exercise 3: 2 % settling time [s] of the slowest mode, smallest damping
+SPEC_3 = (1.2, 0.45)
+
+
+def check_3(design, vertices, C, show: bool = True):
+    """Exercise 04.3: ``design()`` -> ``(lam, R, L)``: a region (35)-(36) (``Re z < -lam``,
+    ``|z| < R`` [1/s]) and a gain ``L`` (4, 2) or (r, 4, 2) designed with it, such that every
+    vertex pair ``A_i - L_j C`` has its eigenvalues settling to 2 % within ``SPEC_3[0]`` s
+    (``Re < -ln(50)/T_s``) and damping at least ``SPEC_3[1]``. Checked here from the
+    eigenvalues of every vertex pair (computed here), not from the student's lam and R."""
+    vertices = np.asarray(vertices, dtype=float)
+    Ts, zeta = SPEC_3
+    info = {}
+
+    def answer():
+        res = design()
+        if res is None or res is Ellipsis or _empty(res):
+            return None
+        lam, R, L = res
+        Ls = np.asarray(L, dtype=float).reshape(-1, 4, C.shape[0])
+        ev = np.array([np.linalg.eigvals(A - Lj @ C) for A in vertices for Lj in Ls]).ravel()
+        info.update(slow=-ev.real.max(), damp=float(np.min(-ev.real / np.abs(ev))),
+                    lam=float(lam), R=float(R))
+        return {"settles within T_s": bool(-ev.real.max() > np.log(50) / Ts),
+                "damping >= spec": bool(info["damp"] >= zeta),
+                "region guarantees the spec": bool(lam >= np.log(50) / Ts and lam / R >= zeta)}
+
+    want = {"settles within T_s": True, "damping >= spec": True,
+            "region guarantees the spec": True}
+    try:
+        answer()
+    except Exception:
+        info.clear()
+    hint = "return (lam, R, L) with L the gain of a design certified with your region"
+    if info:
+        if info["slow"] <= np.log(50) / Ts:
+            hint = (f"the slowest eigenvalue has Re = {-info['slow']:.2f} 1/s: it settles to 2 % "
+                    f"in {np.log(50) / info['slow']:.2f} s > {Ts:g} s")
+        elif info["damp"] < zeta:
+            hint = f"the smallest damping of the vertex pairs is {info['damp']:.2f} < {zeta:g}"
+        elif not (info["lam"] >= np.log(50) / Ts and info["lam"] / info["R"] >= zeta):
+            hint = (f"these poles meet the specification, but the region lam = {info['lam']:g}, "
+                    f"R = {info['R']:g} 1/s does not guarantee it: which lam and lam / R does "
+                    "the specification need?")
+    return check("04.3", answer, want, hint=hint, show=show)

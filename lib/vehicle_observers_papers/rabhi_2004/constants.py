@@ -10,9 +10,10 @@ under a uniform road, the warp equilibrium with zero paper outputs).
 Sign slip in the printed (18) and (22): with ``theta~ = theta - theta^``,
 ``Psi(X) theta - Psi(X^) theta^ = Psi(X^) theta~ + Delta Psi theta``, so
 ``x~4' = -A x~4 + Psi(X^) theta~`` (the paper prints ``- Psi theta~``) and
-``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``. The observer uses this
-stabilising sign; the printed sign amounts to ``P -> -P`` and drives theta^ to its
-projection bounds (notebook 05, section "The printed sign of (18), (22)"). The numerical
+``theta^' = P Psi(X^)' x~4`` cancels the cross term of ``V4'``: the adaptation law as
+printed below (22), ``eta = P Psi(X^)' G' x~4``, is the stabilising one. The observer uses
+it. The flipped law ``P -> -P`` (what the printed (18)/(22) would call for) drives theta^
+to its projection bounds (report 05, section "The flipped adaptation law"). The numerical
 constants we use instead (vehicle,
 tyres, suspension, gains, steps) are chosen in :mod:`vehicle_observers.models.planar`,
 :mod:`vehicle_observers.models.fullcar` and :mod:`vehicle_observers.observers.sliding_mode`

@@ -1,15 +1,16 @@
-"""Checkers of the exercises of notebook 05 (Rabhi, Imine, M'Sirdi, Delanne, AVCS 2004).
+"""Checkers of the exercises of lesson 05 (Rabhi, Imine, M'Sirdi, Delanne, AVCS 2004).
 
-Each ``check_N`` computes the expected answer on its own route (an event-located ODE solution
-with scipy, the library's runs, the observer design's unobservable subspace), calls the
+Each ``check_N`` computes the expected answer on its own route (the library's runs, an
+independent Lyapunov derivative, the observer design's unobservable subspace), calls the
 student's functions on more than one input (a hard-coded number fails) and shows one line with
-:func:`vehicle_observers.results.teaching.check` (``correct`` / ``not yet`` with a hint /
-``not attempted`` while a stub still returns ``None``).
+:func:`vehicle_observers.results.teaching.check` (``correct`` / ``not yet`` with a hint that
+says which output is wrong and by how much / ``not attempted`` while a stub is empty).
 
-1. reaching time of a first-order sliding observer, eqs. (13), (16): closed form against a
-   scipy solution, and the wheel-speed surface of observer (10) with a halved gain;
+1. the wheel-speed switching gains of (10) that guarantee reaching the surface (16) within a
+   deadline against the worst force error (a design from the reaching condition);
 2. boundary-layer width against a chattering budget (sat mode of (10), noisy measurements);
-3. unobservable directions of the wheel states with the outputs (29), with and without one
+3. the sign of the adaptation law (20)-(22) that cancels the cross term of ``V4'``;
+4. unobservable directions of the wheel states with the outputs (29), with and without one
    suspension-deflection sensor (observability rank).
 """
 
@@ -23,10 +24,8 @@ from vehicle_observers.results import teaching
 from vehicle_observers_papers.rabhi_2004 import constants as R
 from vehicle_observers_papers.rabhi_2004 import experiments as EX
 
-#: (e0, lambda, d) of the scalar sliding observers of Exercise 1: e' = -lambda sign(e) + d
-REACH_CASES = ((1.0, 4.0, 0.0), (-5.0, 500.0, 0.0), (0.5, 4.0, 1.0), (-0.3, 3.0, 1.0))
-#: halved wheel-speed gain of Exercise 1 [rad/s^2]
-LAM3_HALF = 250.0
+#: reaching deadlines of Exercise 1 [s]
+DEADLINES = (0.02, 0.05)
 #: boundary-layer multipliers of Exercise 2 and the chattering budget [N]
 LAYER_SCALES = (0.3, 1.0, 3.0, 10.0, 30.0)
 CHATTER_BUDGET = 25.0
@@ -39,41 +38,54 @@ def _empty(values) -> bool:
     return any(v is None or v is Ellipsis for v in values)
 
 
-def scalar_reaching_time(e0: float, lam: float, d: float = 0.0) -> float:
-    """Reaching time [s] of ``e' = -lam sign(e) + d`` from ``e(0) = e0`` (``|d| < lam``),
-    found by integrating the ODE with scipy until the event ``e = 0`` (no closed form used)."""
-    from scipy.integrate import solve_ivp
-
-    if not abs(d) < lam:
-        raise ValueError(f"scalar_reaching_time: need |d| < lam, got d = {d}, lam = {lam}")
-    s0 = np.sign(e0)
-
-    def hit(t, e):
-        return e[0]
-    hit.terminal = True
-    sol = solve_ivp(lambda t, e: [-lam * s0 + d], (0.0, 10 * abs(e0) / (lam - abs(d)) + 1.0),
-                    [e0], events=hit, rtol=1e-10, atol=1e-12)
-    return float(sol.t_events[0][0])
+def lam3_required(Xs, t_r: float, p=R.planar) -> np.ndarray:
+    """Smallest wheel-speed gains (2,) [rad/s^2] that guarantee reaching ``x~3 = 0`` within
+    ``t_r`` [s] from ``|x~3(0)| = R.x3_err0``: ``|e|' <= -(lam - |d|)`` with the disturbance
+    ``d = -(r_i/J_i) F~x_i`` of (16), and the force error bounded by the largest longitudinal
+    force of the run ``Xs`` (the force estimate starts at zero)."""
+    Fmax = np.abs(np.asarray(Xs)[:, 8:10]).max(axis=0)
+    return np.asarray(R.x3_err0) / t_r + np.array([p.r_f / p.J_f, p.r_r / p.J_r]) * Fmax
 
 
-def check_1(reaching_time, measured_reaching, man, Xs):
-    """Exercise 1. ``reaching_time(e0, lam, d)`` [s] on :data:`REACH_CASES` against
-    :func:`scalar_reaching_time`; ``measured_reaching(lam3)`` [s], the reaching time of the
-    front wheel-speed surface of the paper's observer (``R.paper_gains`` with both ``lam3``
-    entries set) on the notebook's run ``man, Xs``, at 250 and 500 rad/s^2 against the runs
-    of :func:`.experiments.part_a_run`."""
-    want = {"formula": [scalar_reaching_time(*c) for c in REACH_CASES],
-            "observer": [EX.part_a_run(man, Xs, R.paper_gains.with_(lam3=(l3, l3)))["t_reach_omega_f"]
-                         for l3 in (LAM3_HALF, 500.0)]}
+def check_1(lam3_for, man, Xs):
+    """Exercise 1. ``lam3_for(t_r)`` -> ``(lam_f, lam_r)`` [rad/s^2] at :data:`DEADLINES`
+    against :func:`lam3_required`; the observer run with the student's gains
+    (:func:`.experiments.part_a_run`) must also reach the front surface within ``t_r``."""
+    want = {f"t_r = {tr:g} s": {"gains": lam3_required(Xs, tr), "reached in time": True}
+            for tr in DEADLINES}
+    got_ = {}
 
     def answer():
-        f = [reaching_time(*c) for c in REACH_CASES]
-        m = [measured_reaching(lam) for lam in (LAM3_HALF, 500.0)]
-        return None if _empty(f + m) else {"formula": f, "observer": m}
-    return teaching.check("05.1", answer, want, rtol=1e-6, atol=1e-9,
-                          hint="while e has the sign of e0 the error moves at the constant rate "
-                               "-lam sign(e0) + d; for the observer read 't_reach_omega_f' of "
-                               "EX.part_a_run with R.paper_gains.with_(lam3=(lam3, lam3))")
+        out = {}
+        for tr in DEADLINES:
+            lam = lam3_for(tr)
+            if _empty([lam]) or _empty(list(np.atleast_1d(lam))):
+                return None
+            lam = np.asarray(lam, dtype=float).reshape(2)
+            run = EX.part_a_run(man, Xs, R.paper_gains.with_(lam3=tuple(lam)))
+            got_[tr] = (lam, run["t_reach_omega_f"], run["t_reach_omega_r"])
+            out[f"t_r = {tr:g} s"] = {"gains": lam, "reached in time": bool(
+                max(run["t_reach_omega_f"], run["t_reach_omega_r"]) <= tr)}
+        return out
+
+    try:
+        answer()
+    except Exception:
+        got_.clear()
+    hint = "return the two gains (front, rear) in rad/s^2"
+    for tr, (lam, _tf, _trr) in got_.items():
+        need = lam3_required(Xs, tr)
+        for w, name in enumerate(("front", "rear")):
+            if not np.isclose(lam[w], need[w], rtol=1e-3):
+                hint = (f"t_r = {tr:g} s, {name} wheel: your gain is {lam[w]:.4g} rad/s^2, "
+                        f"{abs(lam[w] - need[w]):.3g} rad/s^2 {'below' if lam[w] < need[w] else 'above'} "
+                        "the smallest gain that guarantees the deadline against the worst force "
+                        "error (the force estimate starts at zero)")
+                break
+        else:
+            continue
+        break
+    return teaching.check("05.1", answer, want, rtol=1e-3, hint=hint)
 
 
 def layer_chattering(man, Xs, scale: float, seed: int = 0) -> tuple[float, float]:
@@ -97,15 +109,79 @@ def check_2(chattering, best_scale, man, Xs):
     def answer():
         got = [chattering(1.0), chattering(10.0), best_scale]
         return None if _empty(got) else {"chattering": got[:2], "best": got[2]}
-    return teaching.check("05.2", answer, want, rtol=1e-9,
-                          hint="run EX.part_a_run with the sat gains, both layers phi2, phi3 times "
-                               "the scale, noise=R.sensor_noise, seed=0; chattering is the max over "
-                               "the forces of 'chatter_<force>'; then take the smallest scale within "
-                               f"{CHATTER_BUDGET:g} N")
+
+    hint = f"chattering in N (the worst of the four forces), best one of {LAYER_SCALES}"
+    try:
+        got = [chattering(1.0), chattering(10.0)]
+        for sc, g_ in zip((1.0, 10.0), got, strict=True):
+            if g_ is not None and g_ is not Ellipsis and not np.isclose(g_, chat[sc], rtol=1e-9):
+                hint = (f"chattering at layer x{sc:g}: got {float(g_):.4g} N, expected "
+                        f"{chat[sc]:.4g} N (noisy data, seed 0, both layers scaled, worst force)")
+                break
+        else:
+            if best_scale is not None and best_scale is not Ellipsis and best_scale != best:
+                hint = (f"best = {best_scale}: its chattering is "
+                        f"{chat.get(best_scale, float('nan')):.4g} N; the budget is "
+                        f"{CHATTER_BUDGET:g} N and the smallest layer within it is wanted")
+    except Exception:
+        pass
+    return teaching.check("05.2", answer, want, rtol=1e-9, hint=hint)
 
 
-def check_3(n_unobservable, lost_wheel_pattern):
-    """Exercise 3. ``n_unobservable(deflection_wheel)`` for the sensor sets of
+#: cases of Exercise 3 (seeded): regressors Psi (4, 8), force errors x~4 (4,) [N],
+#: parameter errors theta~ (8,), adaptation gains P (8,) > 0
+def _adaptation_cases(n: int = 3, seed: int = 5):
+    rng = np.random.default_rng(seed)
+    return [(rng.normal(size=(4, 8)) * 100.0, rng.normal(size=4) * 50.0,
+             rng.normal(size=8) * 0.1, rng.uniform(1.0, 10.0, size=8)) for _ in range(n)]
+
+
+def lyapunov_excess(theta_hat_dot, Psi, e4, th_err, P) -> float:
+    """``V4' + x~4' A x~4`` for ``V4 = x~4'x~4/2 + theta~' P^-1 theta~/2`` along
+    ``x~4' = -A x~4 + Psi theta~`` (``theta~ = theta - theta^``, ``theta`` constant, so
+    ``theta~' = -theta^'``) with the adaptation ``theta^' = theta_hat_dot(Psi, e4, P)``:
+    ``e4' Psi theta~ - theta~' P^-1 theta^'``, zero when the law cancels the cross term."""
+    th_dot = np.asarray(theta_hat_dot(Psi, e4, P), dtype=float).reshape(8)
+    return float(e4 @ Psi @ th_err - th_err @ (th_dot / P))
+
+
+def check_3(theta_hat_dot):
+    """Exercise 3. ``theta_hat_dot(Psi, x4_err, P)`` -> ``theta^'`` (8,): the excess
+    :func:`lyapunov_excess` must vanish (relative to ``|e4' Psi theta~|``) on seeded cases."""
+    cases = _adaptation_cases()
+    info = []
+
+    def answer():
+        info.clear()
+        out = {}
+        for k, (Psi, e4, th, P) in enumerate(cases, start=1):
+            got = theta_hat_dot(Psi, e4, P)
+            if got is None or got is Ellipsis:
+                return None
+            ex_ = lyapunov_excess(theta_hat_dot, Psi, e4, th, P)
+            cross = float(e4 @ Psi @ th)
+            info.append((k, ex_ / cross))
+            out[f"case {k}"] = bool(abs(ex_) <= 1e-9 * abs(cross))
+        return out
+
+    want = {f"case {k}": True for k in range(1, len(cases) + 1)}
+    try:
+        answer()
+    except Exception:
+        info.clear()
+    hint = "return theta^' as 8 numbers"
+    for k, r in info:
+        if abs(r) > 1e-9:
+            what = ("the cross term is doubled, not cancelled: the sign of your law is flipped"
+                    if abs(r - 2) < 1e-6 else "the cross term is not cancelled")
+            hint = (f"case {k}: V4' + x~4' A x~4 = {r:.3g} times x~4' Psi theta~ (it must be 0 "
+                    f"for every theta~): {what}")
+            break
+    return teaching.check("05.3", answer, want, hint=hint)
+
+
+def check_4(n_unobservable, lost_wheel_pattern):
+    """Exercise 4. ``n_unobservable(deflection_wheel)`` for the sensor sets of
     :data:`SENSOR_SETS` against the unobservable subspace of the observer design
     (:func:`vehicle_observers.observers.sliding_mode.paper_output_design`), and
     ``lost_wheel_pattern()`` (4,) against :func:`vehicle_observers.models.fullcar.warp_vector`
@@ -120,9 +196,21 @@ def check_3(n_unobservable, lost_wheel_pattern):
             return None
         v = np.asarray(v, dtype=float)
         cos = abs(float(v @ w_ref)) / (np.linalg.norm(v) * np.linalg.norm(w_ref))
-        return {"n": n, "abs_cos": cos}
-    return teaching.check("05.3", answer, want, rtol=1e-6,
-                          hint="with x31 measured, x11' = x21 and x21' = x31: build A = [[0, I], [0, 0]] "
-                               "(8 x 8) and the known combination K21 x11 + C21 x21 of the body line "
-                               "(29) (plus the deflection row), then 8 - rank of [C; C A]; the lost "
-                               "pattern spans the null space of K21")
+        return {"n": [int(x) for x in n], "abs_cos": cos}
+
+    hint = "(a) whole numbers of directions (0 to 8), (b) a pattern of 4 wheel heights"
+    try:
+        got = answer()
+        if got is not None:
+            names = ("outputs (29) only", "plus the deflection of wheel 0",
+                     "plus the deflection of wheel 3")
+            bad = [f"{nm}: got {g}, expected {w}" for nm, g, w in zip(names, got["n"], want["n"])
+                   if g != w]
+            if bad:
+                hint = "(a) " + "; ".join(bad)
+            elif got["abs_cos"] < 1 - 1e-6:
+                hint = (f"(b) your pattern is at {np.degrees(np.arccos(min(got['abs_cos'], 1))):.1f} "
+                        "deg from the lost one: it must load no spring force or moment on the body")
+    except Exception:
+        pass
+    return teaching.check("05.4", answer, want, rtol=1e-6, hint=hint)

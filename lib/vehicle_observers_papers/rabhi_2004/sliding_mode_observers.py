@@ -188,13 +188,15 @@ def adaptation_metrics(runs: dict, prefix: str = "A_adapt") -> dict:
 
 
 def flipped_adaptation(man, Xs, mode: str = "sat") -> dict:
-    """Adaptation law with the stabilising sign (``R.force_gains.P``) and with the sign of
-    the printed (18)/(22) (``-P``): max force RMSE [% of peak] and the largest |F0/sigma|
+    """The printed adaptation law ``theta^' = P Psi(X^)' x~4`` (Rabhi 2004, below (22)),
+    stabilising with ``theta~ = theta - theta^`` (``R.force_gains.P``), and the flipped law
+    ``-P`` (the one that would cancel the cross term of the printed (18)/(22), whose
+    ``- Psi theta~`` is a sign slip): max force RMSE [% of peak] and the largest |F0/sigma|
     estimate reached; ``{name: (value, unit, note)}``."""
     out = {}
     for lab, sgn in (("stabilising", 1.0), ("flipped", -1.0)):
         o = EX.part_a_run(man, Xs, R.force_gains.with_(mode=mode, P=tuple(sgn * np.asarray(R.force_gains.P))))
-        out[f"A_signflip_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, {lab} sign")
+        out[f"A_signflip_{lab}_rmse_pct_max"] = (_pct_max(o), "% of peak", f"{mode}, {lab} law")
         out[f"A_signflip_{lab}_theta_F0_max"] = (float(np.max(np.abs(o["res"].theta[:, 1::2]))), "N/m",
                                               "max |F0/sigma| estimate")
     return out
@@ -702,10 +704,6 @@ def paper_claims(m: dict) -> list[dict]:
                               "non-adaptive observer (no reason for 5 % recorded)"),
              note=f"without adaptation {m['A_mu_sign_none_rmse_pct_max']:.3g} %; F0/sigma entries "
                   f"only (variant, row below) {m['A_mu_sign_partial_rmse_pct_max']:.3g} %"),
-        dict(item="Fig. 7", figure="", metric="-",
-             rule=Rule.no_number("B_paper_belgian_U_rmse_pct_mean",
-                                 paper="LPA profile measurement (photograph only, no data)"),
-             note="our road estimate has no LPA record to be compared with"),
         dict(item="Fig. 8", figure="fig8_wheels",
              metric="wheel displacement RMSE [% of displacement RMS], paper outputs (29), class D",
              rule=Rule("100 * B_paper_D_z_rmse_mm_mean / B_paper_D_z_rms_mm_mean",
@@ -806,7 +804,7 @@ def _xlabel(axes):
 
 #: colours of the estimators in every figure of notebook 05
 C_PAPER, C_SAT, C_LPF, C_EKF = PALETTE[1], PALETTE[0], PALETTE[5], PALETTE[3]
-C_DEFL, C_MOD = PALETTE[0], PALETTE[3]
+C_DEFL, C_MOD, C_LOST = PALETTE[0], PALETTE[3], PALETTE[4]
 
 
 def _late_ylim(ax, t, errs, t0: float = 0.5, pad: float = 1.3):
@@ -1236,7 +1234,9 @@ def fig_road_profile(P: dict, roads=("D", "belgian"), w: int = WHEEL_FR, zoom=(2
     the deflection sensor (middle); the component of the true road and of the raw error along
     the lost warp pattern with its prediction :func:`lost_road_part` (right). On the Belgian block
     the 10 m sample is mirror-extended, so the road repeats every 20 m (dotted lines, one
-    period apart): so do the error spikes."""
+    period apart): so do the error spikes. The middle and right panels start at ``t0`` = 1 s,
+    after the start transient (shown in the zoom)."""
+    t0 = 1.0
     fig, ax = plt.subplots(len(roads), 3, figsize=(14, 3.5 * len(roads)), squeeze=False,
                            gridspec_kw={"width_ratios": [1, 1.25, 1.25]})
     for row, nm in enumerate(roads):
@@ -1255,29 +1255,30 @@ def fig_road_profile(P: dict, roads=("D", "belgian"), w: int = WHEEL_FR, zoom=(2
         errs = {"paper outputs (29), raw": (o["res"].U[:, w] - U[:, w], C_PAPER, 0.8),
                 "modulo the warp": (Um[:, w] - U[:, w], C_MOD, 0.6),
                 "+ one deflection sensor": (od["res"].U[:, w] - U[:, w], C_DEFL, 0.6)}
+        late = tt >= t0
         for lab, (e, c, lw) in errs.items():
-            ax[row, 1].plot(*decimate(tt, 1e3 * e), color=c, lw=lw, label=lab)
-        _late_ylim(ax[row, 1], tt, [1e3 * e for e, _, _ in errs.values()], t0=1.0, pad=1.15)
+            ax[row, 1].plot(*decimate(tt[late], 1e3 * e[late]), color=c, lw=lw, label=lab)
+        _late_ylim(ax[row, 1], tt, [1e3 * e for e, _, _ in errs.values()], t0=t0, pad=1.15)
         ax[row, 1].set_ylabel("road error $\\hat U_4 - U_4$ [mm]")
-        ax[row, 1].set_title(f"road {nm}: error after the start transient (t > 1 s)", fontsize=9)
+        ax[row, 1].set_title(f"road {nm}: error, t > {t0:g} s", fontsize=9)
         _, e_lost, pred = lost_road_part(o)
-        ax[row, 2].plot(*decimate(tt, 1e3 * e_lost), color=C_PAPER, lw=1.0,
-                        label="raw error along the lost pattern")
-        ax[row, 2].plot(*decimate(tt, 1e3 * pred), "--", color="k", lw=0.8,
+        ax[row, 2].plot(*decimate(tt[late], 1e3 * e_lost[late]), color=C_LOST, lw=1.0,
+                        label="raw error along the lost warp pattern")
+        ax[row, 2].plot(*decimate(tt[late], 1e3 * pred[late]), "--", color="k", lw=0.8,
                         label=r"$-$slow part of the road's warp, $(2\tau s+1)/(\tau s+1)^2$")
         ax[row, 2].set_ylabel("component on the lost road pattern [mm]")
-        ax[row, 2].set_title(f"road {nm}: the error is the slow part of the road's warp", fontsize=9)
-        _late_ylim(ax[row, 2], tt, [1e3 * e_lost, 1e3 * pred], t0=1.0, pad=1.15)
+        ax[row, 2].set_title(f"road {nm}: error on the lost warp pattern", fontsize=9)
+        _late_ylim(ax[row, 2], tt, [1e3 * e_lost, 1e3 * pred], t0=t0, pad=1.15)
         if nm == "belgian":
             period = 20.0 / R.speed_belgian       # mirror-extended 10 m sample: period 20 m
-            m = tt >= 1.0
-            k = np.argmax(np.abs((o["res"].U - U)[m, w]))
-            t_pk = tt[m][k] % period
+            k = np.argmax(np.abs((o["res"].U - U)[late, w]))
+            t_pk = tt[late][k] % period
             for a_ in ax[row, 1:]:
-                for tk in np.arange(t_pk, tt[-1], period):
-                    a_.axvline(tk, color=CB[3], ls=":", lw=0.8)
-            ax[row, 1].set_title(f"road {nm}: error (t > 1 s); dotted: every {period:g} s = 20 m, "
-                                 "the period of the mirrored sample", fontsize=8)
+                for j, tk in enumerate(np.arange(t_pk, tt[-1], period)):
+                    if tk >= t0:
+                        a_.axvline(tk, color="0.4", ls=":", lw=0.8,
+                                   label=f"every {period:g} s = 20 m: period of the mirrored road"
+                                   if j == 1 else None)
     _xlabel(ax[-1])
     for a_ in ax[:-1].flat:
         a_.set_xlabel("$t$ [s]")
@@ -1356,7 +1357,7 @@ def reaching_animation(run: dict, Xs, t_end: float = 0.32, frames: int = 24):
     m = t <= t_end
     ex_ = Xs[m, 3] - run["res"].x2[m, 0]
     ey = Xs[m, 4] - run["res"].x2[m, 1]
-    fig, ax = plt.subplots(figsize=(4.4, 3.2))
+    fig, ax = plt.subplots(figsize=(5.0, 3.4))
     ax.axhline(0, color=C_SAT, lw=1.6, label=r"surface $\tilde v_y = 0$")
     ax.axvline(0, color=C_EKF, lw=1.6, ls="--", label=r"surface $\tilde v_x = 0$")
     line, = ax.plot([], [], color=C_PAPER, lw=1.4)
@@ -1373,7 +1374,7 @@ def reaching_animation(run: dict, Xs, t_end: float = 0.32, frames: int = 24):
         k = idx[i]
         line.set_data(ex_[:k], ey[:k])
         dot.set_data([ex_[k - 1]], [ey[k - 1]])
-        title.set_text(f"sliding surfaces being reached, t = {1e3 * t[k - 1]:.0f} ms")
+        title.set_text(f"reaching the surfaces, t = {1e3 * t[k - 1]:.0f} ms")
         return line, dot, title
 
     fig.tight_layout()
