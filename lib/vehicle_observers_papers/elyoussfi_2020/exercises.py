@@ -30,7 +30,11 @@ from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 #: sensor sets of exercise 2: name -> (C (p, 2), F_s (p, 1), M (2, 1), noise stds (p,))
 SENSOR_SETS = {
-    "gyro + wheel-speed yaw rate, error on 1/I_z (this notebook)":
+    "v_y and gyro (C = I), rear cornering-force error (this notebook)":
+        ([[1, 0], [0, 1]], [[0], [1]], "rear", [0.02, 0.002]),
+    "gyro + wheel-speed yaw rate, rear cornering-force error":
+        ([[0, 1], [0, 1]], [[1], [0]], "rear", [0.002, 0.005]),
+    "gyro + wheel-speed yaw rate, error on 1/I_z (previous reconstruction)":
         ([[0, 1], [0, 1]], [[1], [0]], [[0], [1]], [0.002, 0.005]),
     "gyro only, error on 1/m": ([[0, 1]], [[1]], [[1], [0]], [0.002]),
     "gyro only, error on 1/I_z": ([[0, 1]], [[1]], [[0], [1]], [0.002]),
@@ -42,6 +46,8 @@ SENSOR_SETS = {
 def sensor_model(model, name: str):
     """``model`` with the sensors and uncertainty direction of :data:`SENSOR_SETS` ``[name]``."""
     C, F_s, M, sd = SENSOR_SETS[name]
+    if M == "rear":                        # the rear-force direction [1/m, -l_r/I_z]^T
+        M = [[1.0 / model.m], [-model.l_r / model.I_z]]
     return dataclasses.replace(model, C=np.array(C, float), F_s=np.array(F_s, float),
                                M=np.array(M, float), D_w=np.diag(np.array(sd, float)))
 
