@@ -60,6 +60,20 @@ def saved_figures(metrics_json: Path) -> list[str]:
     return sorted(f[:-4] for f in files if f.endswith(".png"))
 
 
+def run_figures(name: str, m: dict) -> tuple[list[str], Path]:
+    """``(figure names, folder)`` a quick run saved: a report's (or a monolithic notebook's)
+    from its ``metrics.json``; a lesson's (``teaching.Lesson``) from ``<section>/lesson/``."""
+    if pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "lesson" and (
+            m["_dir"] / "lesson").is_dir():
+        d = m["_dir"] / "lesson"
+        return sorted(p.stem for p in d.glob("*.png")), d
+    return saved_figures(m["_dir"] / "metrics.json"), m["_dir"]
+
+
+#: the pointer a lesson puts after an exercise whose solution lives in the solutions notebook
+SOLUTION_POINTER = "**Solution and discussion:** see `solutions/"
+
+
 def _text(out, key="text/plain") -> str:
     if out.output_type == "stream":
         return "".join(out.text)
@@ -131,7 +145,8 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
     if len(starts) < minimum:
         problems.append(f"{len(starts)} exercises (want at least {minimum} '**Exercise N.**' cells)")
     shown = [i for i, c in enumerate(cells) if c.cell_type == "markdown"
-             and c.source.lstrip().startswith("**Solution")]
+             and c.source.lstrip().startswith("**Solution")
+             and not c.source.lstrip().startswith(SOLUTION_POINTER)]
     if shown:
         problems.append(f"cells {shown}: a solution in plain sight (markdown '**Solution')")
     for n, i in enumerate(starts, 1):
@@ -145,6 +160,15 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
             block.append(c)
         stubs = [c for c in block if c.cell_type == "code" and "exercise" in c.metadata.get("tags", [])]
         sols = [c for c in block if c.cell_type == "code" and "solution" in c.metadata.get("tags", [])]
+        pointer = [c for c in block if c.cell_type == "markdown"
+                   and c.source.lstrip().startswith(SOLUTION_POINTER)]
+        if len(stubs) == 1 and not sols and len(pointer) == 1:   # solution in its own notebook
+            if "# your code here" not in stubs[0].source:
+                problems.append(f"cell {i} ({label}): the stub has no '# your code here'")
+            if _statuses(stubs[0]) != ["not attempted"]:
+                problems.append(f"cell {i} ({label}): the stub's checker said "
+                                f"{_statuses(stubs[0])} (want ['not attempted'])")
+            continue
         if len(stubs) != 1 or len(sols) != 1:
             problems.append(f"cell {i} ({label}): {len(stubs)} 'exercise' and {len(sols)} 'solution' "
                             f"code cells after it (want one of each)")
@@ -307,8 +331,8 @@ def test_checker_rejects_warnings_on_stderr():
 def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
-    figures = saved_figures(m["_dir"] / "metrics.json")
-    problems = output_problems(nb, figures, m["_dir"])
+    figures, folder = run_figures(name, m)
+    problems = output_problems(nb, figures, folder)
     assert not problems, f"{name} (quick): " + "; ".join(problems)
 
 
@@ -319,6 +343,9 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
     (checked by ``Report.savefig`` on the figure itself, written by ``Report.write`` to
     ``reporting.figure_checks_path(<the run's figures folder>)``)."""
     m = run_notebook(name)
+    if pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "lesson" and not (
+            m["_dir"] / "metrics.json").exists():
+        pytest.skip(f"{name}: a lesson (teaching.Lesson checks its figures' labels itself)")
     if not saved_figures(m["_dir"] / "metrics.json"):
         pytest.skip(f"{name} saves no figure")
     checks = figure_checks_path(m["_dir"])
@@ -332,11 +359,23 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
 @pytest.mark.notebook
 @pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
 def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
-    """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
+    """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct
+    (or a pointer to the section's solutions notebook, whose checkers must all say correct,
+    one per exercise). A reproduction report has no exercises."""
+    if pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "report":
+        pytest.skip(f"{name}: a reproduction report has no exercises")
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
     problems = exercise_problems(nb)
     assert not problems, f"{name}: " + "; ".join(problems)
+    n_pointers = sum(c.cell_type == "markdown" and c.source.lstrip().startswith(SOLUTION_POINTER)
+                     for c in nb.cells)
+    if n_pointers:
+        sol = run_notebook(f"{name}_solutions")
+        snb = nbformat.read(str(sol["_executed"]), as_version=4)
+        statuses = [st for c in snb.cells if c.cell_type == "code" for st in _statuses(c)]
+        assert statuses == ["correct"] * n_pointers, (
+            f"{name}_solutions: checker statuses {statuses} for {n_pointers} exercises")
 
 
 @pytest.mark.parametrize("name", [_param(n, "full") for n in NOTEBOOKS])
@@ -351,10 +390,14 @@ def test_full_executed_notebook_shows_its_figures(name):
     if params.get("quick") or code_sources(nb) != code_sources(current):
         pytest.skip(f"{name}: build/notebooks/ copy is from another notebook version or quick "
                     "mode (run `make figures`)")
-    fig_dir = Path(params.get("figures_dir") or ROOT / "figures") / name
+    section = pipeline.section_of(name)
+    fig_dir = Path(params.get("figures_dir") or ROOT / "figures") / section
     if not (fig_dir / "metrics.json").exists():
-        fig_dir = ROOT / "figures" / name
-    problems = output_problems(nb, saved_figures(fig_dir / "metrics.json"), fig_dir)
+        fig_dir = ROOT / "figures" / section
+    figures, folder = run_figures(name, {"_dir": fig_dir}) if pipeline.notebook_kind(
+        pipeline.notebook_path(name, ROOT)) == "lesson" and (fig_dir / "lesson").is_dir() else (
+        saved_figures(fig_dir / "metrics.json"), fig_dir)
+    problems = output_problems(nb, figures, folder)
     assert not problems, f"{name} (full): " + "; ".join(problems)
 
 

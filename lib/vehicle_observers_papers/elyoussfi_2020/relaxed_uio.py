@@ -850,16 +850,14 @@ def fig_fault_live(model: ul.UncertainLateralTS, gains: uio.UIOGains, offset: fl
                    noise: float, t_end: float = 11.0, seed: int = 0):
     """Live figure of the notebook: the fault estimate [rad] of design ``gains`` on a fresh
     run with a fault of size ``offset`` [rad] (plus the 0.005 rad sine) from ``P.t_fault`` and
-    sensor noise ``noise`` x the nominal standard deviations, beside the raw residual
-    ``y_gyro - y_wheel`` (= f + noise: the measurement the fault estimate filters). The gains
-    stay those designed for the nominal noise. ``t_end`` [s]: a short run (one redraw < 1 s)."""
+    sensor noise ``noise`` x the nominal standard deviations. The gains stay those designed for
+    the nominal noise. ``t_end`` [s]: a short run (one redraw < 1 s)."""
     m = dataclasses.replace(model, D_w=model.D_w * noise)
     sc = sn.make_scenario(m, t_end, P.dt, P.t_fault, P.x0_true, seed=seed,
                           fault_kw={"offset": offset, "amp": P.fault_amp})
     ev = sn.evaluate(gains, sc, m)
-    t, res = sc["t"], sc["y"][:, 0] - sc["y"][:, 1]
+    t = sc["t"]
     fig, ax = plt.subplots(figsize=(8.5, 3.4))
-    ax.plot(t, res, color="0.75", lw=0.5, label=r"residual $y_{gyro} - y_{wheel}$")
     ax.plot(t, sc["f"], color=TRUTH, label="true fault $f$")
     ax.plot(t, ev["Xhat"][:, 2], color=color("elyoussfi2020/theorem2"), lw=1.4,
             label=r"UIO (b) estimate $\hat f$")
