@@ -35,7 +35,7 @@ def test_identification_and_structure(m):
     # the previous reconstruction: v_y unobservable at its open-loop mode [A_2]_11
     a11 = max(float(A[0, 0]) for A in P.build_model(variant="yaw").A)
     assert m["yaw_vy_observable"] is False
-    assert m["yaw_max_unobservable_mode"] == pytest.approx(a11, rel=1e-6)
+    assert m["yaw_max_unobservable_mode"] == pytest.approx(a11, rel=1e-3)   # 4 digits stored
     assert m["yaw_slowest_pole_b"] == pytest.approx(-a11, rel=1e-4)
     assert m["yaw_kernel_min_rel_distance"] < 1e-9
 
@@ -49,7 +49,7 @@ def test_phi_derived_from_input_bounds_and_holds_on_run(m):
     assert m["phi_design"] == pytest.approx(m["phi_dh_dalpha_max"] * adot, rel=1e-3)
     # rear-force error: a_y bound (D_f + (1 + rho) D_r)/m
     assert m["phi_ay_max"] == pytest.approx((P.tire_f.D + (1 + P.rho) * P.tire_r.D) / P.m,
-                                            rel=1e-9)
+                                            rel=1e-3)
     assert m["max_abs_hdot_smooth"] <= m["phi_design"]
     assert m["max_slip_deg"] < np.degrees(P.alpha_fit_max)
 
@@ -79,7 +79,7 @@ def test_map_has_no_relaxed_only_cell_as_derived(m):
     kernel test says [22] is feasible at every decay rate), so 0 relaxed-only cells; the
     relaxed gamma is lower or equal up to the finite mu grid. Catches a solver failure of [22]
     counted as a relaxed-only cell."""
-    assert m["map_n_feasible_a"] == m["map_n_cells"]
+    assert m["map_n_feasible_a"] == m["map_n_cells"] and m["map_n_inconclusive"] == 0
     assert m["map_n_only_b"] == m["map_n_only_b_admissible"] == 0
     assert m["map_n_only_b_per_rho"] == [0, 0, 0]
     assert m["map_min_ratio_admissible"] < 1

@@ -380,7 +380,7 @@ def _claim_values(**over):
              max_abs_hdot=6.5, max_abs_hdot_smooth=0.9, phi_design=6.8, delta_dot_max=0.3, ekf_fdot_max=0.05,
              map_n_only_b_admissible=0, map_max_ratio_admissible=1.0001,
              map_min_ratio_admissible=0.967, gamma_ratio_b_over_a=0.99, map_n_only_b=0,
-             map_n_cells=20, map_n_only_b_per_rho=[0, 0, 0], map_n_only_a=0, design_alpha=5.0,
+             map_n_cells=20, lmi_status_a="certified", lmi_status_b="certified", map_n_only_b_per_rho=[0, 0, 0], map_n_only_a=0, design_alpha=5.0,
              slowest_pole_a=11.2, slowest_pole_b=11.5, sens_alpha=[2.0, 5.0],
              sens_conv_ratio=[1.1, 1.3], sens_delay_ratio=[0.95, 0.93], dim_ker_Cbar=1,
              kernel_min_rel_distance=0.99, yaw_vy_observable=False,
@@ -440,6 +440,9 @@ def test_faster_claims_graded_on_the_run(tmp_path):
     assert fast[F45].verdict == fast[F6].verdict == "reproduced"
     assert all(x.verdict != "not comparable" for x in c.values() if x.kind == "paper"
                and x.item != "Fig. 3 (steering input)")
+    assert c[F45].proves_little is False
+    # a design certified only at round-off: the verdict proves little
+    assert _claims(tmp_path, lmi_status_b="inconclusive")[F6].proves_little is True
 
 
 def test_other_claim_rules(tmp_path):

@@ -403,13 +403,17 @@ def relaxed_certificate(st, values: dict, alpha: float, phi: float, mu: float,
 
 # ------------------------------------------------------------------- feasibility sweep --
 def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius: float = 200.0,
-                    gamma_level: float | None = None, disk: bool = True) -> dict:
+                    gamma_level: float | None = None, disk: bool = True,
+                    eps: float = 1e-6) -> dict:
     """Best certified gamma of (a) (depends on alpha only) and (b) on an alpha x phi grid.
 
     Returns ``{"alpha", "phi", "gamma_a" (na,), "gamma_b" (na, nphi), "margin_a",
-    "margin_b", "feasible_a" (na, nphi), "feasible_b"}`` with ``nan`` gammas where the
-    LMIs have no certified solution; "feasible" means a certified solution with
-    ``gamma <= gamma_level`` (any gamma when ``gamma_level`` is None).
+    "margin_b", "status_a" (na,), "status_b" (na, nphi), "feasible_a" (na, nphi),
+    "feasible_b"}`` with ``nan`` gammas where the LMIs have no solution whose signs check;
+    "feasible" means a solution whose certificate status is ``"certified"`` (margins above
+    round-off, :class:`~vehicle_observers.design.lmi.Certificate`; an ``"inconclusive"``
+    one is not feasible) with ``gamma <= gamma_level`` (any gamma when None). ``eps``: LMI
+    strictness (time-scaled units).
     """
     st = structure(model) if st is None else st
     alphas, phis = np.asarray(alphas, float), np.asarray(phis, float)
@@ -417,24 +421,27 @@ def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius:
     ma = np.full(len(alphas), np.nan)
     gb = np.full((len(alphas), len(phis)), np.nan)
     mb = np.full_like(gb, np.nan)
+    sa = np.full(len(alphas), "infeasible", dtype=object)
+    sb = np.full(gb.shape, "infeasible", dtype=object)
     for k, a in enumerate(alphas):
         try:
-            g = design_quadratic(model, a, st, radius=radius, disk=disk)
-            ga[k], ma[k] = g.gamma, g.min_margin
+            g = design_quadratic(model, a, st, radius=radius, disk=disk, eps=eps)
+            ga[k], ma[k], sa[k] = g.gamma, g.min_margin, g.certificate.status
         except InfeasibleDesign:
             pass
         for j, ph in enumerate(phis):
             try:
-                g = design_relaxed(model, a, ph, mu, st, radius=radius, disk=disk)
-                gb[k, j], mb[k, j] = g.gamma, g.min_margin
+                g = design_relaxed(model, a, ph, mu, st, radius=radius, disk=disk, eps=eps)
+                gb[k, j], mb[k, j], sb[k, j] = g.gamma, g.min_margin, g.certificate.status
             except InfeasibleDesign:
                 pass
     lev = np.inf if gamma_level is None else gamma_level
-    fa = np.broadcast_to((np.isfinite(ga) & (np.nan_to_num(ga, nan=np.inf) <= lev))[:, None],
-                         gb.shape).copy()
-    fb = np.isfinite(gb) & (np.nan_to_num(gb, nan=np.inf) <= lev)
+    fa = np.broadcast_to((np.isfinite(ga) & (sa == "certified")
+                          & (np.nan_to_num(ga, nan=np.inf) <= lev))[:, None], gb.shape).copy()
+    fb = np.isfinite(gb) & (sb == "certified") & (np.nan_to_num(gb, nan=np.inf) <= lev)
     return {"alpha": alphas, "phi": phis, "gamma_a": ga, "gamma_b": gb, "margin_a": ma,
-            "margin_b": mb, "feasible_a": fa, "feasible_b": fb}
+            "margin_b": mb, "status_a": sa, "status_b": sb, "feasible_a": fa,
+            "feasible_b": fb}
 
 
 def phi_bound(model: UncertainLateralTS, delta_dot_max: float, fdot_max: float, D_f: float,

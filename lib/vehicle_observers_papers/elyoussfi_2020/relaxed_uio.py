@@ -127,10 +127,11 @@ def unobservable_modes(st: dict, tol: float = 1e-8) -> list[float]:
 
 
 def designs(model: ul.UncertainLateralTS, st: dict, alpha: float, phi: float, mu=P.mu_grid,
-            eps: float | None = None):
+            eps: float | None = P.lmi_eps):
     """Designs (a) [22] (common quadratic) and (b) Theorem 2 (relaxed, ``mu`` line-searched
     over ``mu`` [s]) at decay rate ``alpha`` [1/s] and ``|h'| <= phi`` [1/s], poles in
-    ``|lambda| < P.radius`` [1/s]; ``eps``: LMI strictness (default: the designs' own).
+    ``|lambda| < P.radius`` [1/s]; ``eps``: LMI strictness (default ``P.lmi_eps``, margins
+    above round-off; None: the designs' own 1e-6).
     Returns ``(gains_a, gains_b)``."""
     kw = {} if eps is None else {"eps": eps}
     ga = uio.design_quadratic(model, alpha, st, radius=P.radius, **kw)
@@ -432,7 +433,8 @@ def feasibility(model: ul.UncertainLateralTS, st: dict, quick: bool) -> dict:
     alphas = np.array([2.0, 20.0]) if quick else np.array([1.0, 5.0, 20.0, 50.0])
     phis = (np.array([phi_rho[1]]) if quick
             else np.r_[0.0, phi_rho, 30.0])
-    fm = uio.feasibility_map(model, alphas, phis, P.mu_grid, st, P.radius, None, disk=False)
+    fm = uio.feasibility_map(model, alphas, phis, P.mu_grid, st, P.radius, None, disk=False,
+                             eps=P.lmi_eps)
     fm["ratio"] = fm["gamma_b"] / fm["gamma_a"][:, None]
     fm["phi_rho"] = phi_rho
     return fm
@@ -446,6 +448,9 @@ def feasibility_metrics(fm: dict, phi: float) -> dict:
     only_b = fm["feasible_b"] & ~fm["feasible_a"]
     only_a = fm["feasible_a"] & ~fm["feasible_b"]
     adm = ratio[np.broadcast_to(ok, ratio.shape) & np.isfinite(ratio)]
+    inc_a = np.asarray(fm.get("status_a", np.full(len(fm["alpha"]), "")), dtype=object)
+    inc_b = np.asarray(fm.get("status_b", np.full(ratio.shape, "")), dtype=object)
+    n_inconclusive = int(((inc_a[:, None] == "inconclusive") | (inc_b == "inconclusive")).sum())
     per_rho = [int((only_b & (fm["phi"][None, :] >= p - 1e-12)).sum()) for p in fm["phi_rho"]]
     return {
         "map_alpha": (fm["alpha"], "1/s", "decay rates of the map"),
@@ -455,6 +460,8 @@ def feasibility_metrics(fm: dict, phi: float) -> dict:
         "map_gamma_a": (fm["gamma_a"], "", "best certified gamma of (a) per alpha"),
         "map_gamma_b": (fm["gamma_b"], "", "rows alpha, columns phi"),
         "map_n_cells": (int(only_b.size), "", "cells of the map"),
+        "map_n_inconclusive": (n_inconclusive, "", "cells where a design's solution has "
+                                                   "round-off margins (counted infeasible)"),
         "map_n_feasible_a": (int(fm["feasible_a"].sum()), "", "cells where (a) is feasible"),
         "map_n_feasible_b": (int(fm["feasible_b"].sum()), "", "cells where (b) is feasible"),
         "map_n_only_a": (int(only_a.sum()), "", "cells where only (a) is feasible"),
@@ -476,8 +483,10 @@ def _faster_rule(value: str, paper: str, what: str) -> Rule:
     """Rule of a "(b) is faster than (a)" claim on the ratio ``value`` of a time (b) / (a):
     reproduced at least 10 % shorter, partly any shorter, differs otherwise."""
     return Rule(value, reproduced="value <= 0.9", partly="value < 1", paper=paper,
+                informative="lmi_status_a == 'certified' and lmi_status_b == 'certified'",
                 source=f"chosen here: 'faster' has no number; at least 10 % shorter {what}, "
-                       "partly any (no reason for 10 % recorded)")
+                       "partly any (no reason for 10 % recorded); informative only if both "
+                       "designs' certificates are above round-off")
 
 
 def _proof_note(g: dict) -> str:
