@@ -831,7 +831,7 @@ def fig_feasibility_map(fm: dict, phi_bound: float | None = None):
                                               ec="0.4", lw=0))
     n_only = int((fb & ~fa).sum())
     ax[0].set_title(f"feasible designs per cell: Theorem 2 only in {n_only} of {cat.size}\n"
-                    r"(a row serves every $\rho$ whose bound it reaches; hatched: none)",
+                    r"(a row serves every $\rho$ whose bound it reaches; hatched: below every bound)",
                     fontsize=10)
     ax[0].legend(handles=[plt.Rectangle((0, 0), 1, 1, color=c) for c in cols], labels=names,
                  loc="upper left", bbox_to_anchor=(0.0, -0.2), ncol=4, fontsize=8, frameon=False)
