@@ -480,6 +480,22 @@ def test_estimate_figure_shows_the_design_difference_and_scales_errors(case):
     plt.close(fig)
 
 
+def test_vy_figure_shows_the_graded_convergence_times(case):
+    """Fig. 4 analogue: its bottom panel marks each design's noise-free v_y convergence time
+    (what the Figs. 4-5 claim is graded on), recomputed here from the errors by
+    :func:`us.convergence_time`. Catches a figure that shows another quantity than the
+    graded one."""
+    sim = case["sim"]
+    fig = us.fig_estimate(sim, 0)
+    ax = fig.axes[3]
+    xs = sorted(ln.get_xdata()[0] for ln in ax.get_lines() if len(ln.get_xdata()) == 2
+                and ln.get_xdata()[0] == ln.get_xdata()[1])
+    t = sim["sc0"]["t"]
+    want = sorted(us.convergence_time(t, sim["ev0"][d]["err"][:, 0], P.t_fault) for d in "ab")
+    np.testing.assert_allclose(xs, want, atol=1e-12)
+    plt.close(fig)
+
+
 def test_fault_figure_shows_the_graded_delays(case):
     """Fig. 6 analogue: its bottom panel marks each design's noise-free fault delay (the
     quantity the claim is graded on) at t_fault + delay and the 10 % band. Catches a figure
