@@ -57,9 +57,23 @@ def test_noise_rule(model):
 
 
 def test_noise_rule_main_model():
-    """Main model: two yaw-rate sensors, 1/I_z error (M = [0, 1]^T): the process noise sits
-    on the yaw equation, with d_max = rho |row 2 of A_i| . (0.5 m/s, 0.2 rad/s)."""
+    """Main model: C = I, rear cornering-force error d = rho F C_ri alpha_r [N] along
+    M = [1/m, -l_r/I_z]^T: d_max = rho max_i C_ri (0.5 / v_x + l_r 0.2 / v_x) and the process
+    noise is M M^T d_max^2 dt (both equations, correlated with the sign of -l_r). Catches an
+    EKF noise rule built on the wrong uncertainty direction."""
     mm = P.build_model()
+    Q, R, info = ub.noise_rule(mm, P.dt)
+    d = P.rho * max(mm.tyres.C_r) * (0.5 + P.l_r * 0.2) / P.vx
+    assert info["d_max"] == pytest.approx(d, rel=1e-12)
+    M = np.array([1 / P.m, -P.l_r / P.I_z])
+    np.testing.assert_allclose(Q[:2, :2], np.outer(M, M) * d**2 * P.dt, rtol=1e-12)
+    assert Q[0, 1] < 0
+
+
+def test_noise_rule_yaw_model():
+    """The "yaw" variant: two yaw-rate sensors, 1/I_z error (M = [0, 1]^T): the process noise
+    sits on the yaw equation, with d_max = rho |row 2 of A_i| . (0.5 m/s, 0.2 rad/s)."""
+    mm = P.build_model(variant="yaw")
     Q, R, info = ub.noise_rule(mm, P.dt)
     np.testing.assert_allclose(R, np.diag([P.sigma_gyro**2, P.sigma_wheel**2]))
     d = max(P.rho * (abs(A[1, 0]) * 0.5 + abs(A[1, 1]) * 0.2) for A in mm.A)

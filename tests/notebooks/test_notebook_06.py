@@ -1,10 +1,12 @@
-"""Notebook 06 (relaxed UIO) executed in quick mode; its findings asserted against theory or
-an independent computation from the recorded metrics.
+"""Section 06 (relaxed UIO): the reproduction report executed in quick mode, its findings
+asserted against theory or an independent computation from the recorded metrics; the lesson
+and its solutions executed (checkers: stubs "not attempted", solutions "correct").
 
-Quick mode: 12 s run (fault at 8 s), feasibility map alpha in {0.5, 1.2} 1/s x phi in
-{0, derived bound}; the C = I comparison map alpha in {0, 15} x phi in {0, 10}.
+Quick mode: 12 s run (fault at 8 s), feasibility map alpha in {2, 20} 1/s x phi at the
+derived bound, sensitivity at the design decay rate only.
 """
 
+import nbformat
 import numpy as np
 import pytest
 from vehicle_observers_papers.elyoussfi_2020 import constants as P
@@ -14,112 +16,113 @@ pytestmark = [pytest.mark.notebook, pytest.mark.xdist_group("nb06")]
 
 @pytest.fixture(scope="module")
 def m(run_notebook):
-    return run_notebook("06_relaxed_uio")
+    return run_notebook("06_relaxed_uio_report")
 
 
 def _verdicts(m):
-    return {(c["figure"], c["item"]): c for c in m["_doc"]["claims"]}
+    return {c["item"]: c for c in m["_doc"]["claims"]}
 
 
-@pytest.fixture(scope="module")
-def a11():
-    """[A_i]_11 = -(C_fi + C_ri) / (m v_x) [1/s] of both rules, from the identified model."""
-    return sorted(float(A[0, 0]) for A in P.build_model().A)
-
-
-def test_identification_and_structure(m, a11):
+def test_identification_and_structure(m):
+    """v_y is measured and observable through the decoupled outputs, (23a) exact, ker Cbar a
+    line, and the kernel test far from a certificate. Catches a reconstruction that hides
+    v_y again (the previous one: unobservable mode = open-loop v_y mode)."""
     assert m["fit_rms_rel"] < 2e-3
-    assert m["T_Mbar_residual"] < 1e-12            # (23a) exact
-    # v_y unmeasured, rank condition, detectable through the open-loop v_y modes only
-    assert m["vy_measured"] is False and m["rank_CM"] == m["rank_M"] == 1
-    np.testing.assert_allclose(sorted(m["unobservable_modes"]), a11, rtol=1e-3)
-    assert m["max_unobservable_mode"] < -P.alpha_design
+    assert m["T_Mbar_residual"] < 1e-12
+    assert m["rank_CM"] == m["rank_M"] == 1 and m["vy_observable"] is True
+    assert m["unobservable_modes"] == [] and m["dim_ker_Cbar"] == 1
+    assert m["kernel_min_rel_distance"] > 0.1 and min(m["kernel_lp_margin"]) > 0
+    # the previous reconstruction: v_y unobservable at its open-loop mode [A_2]_11
+    a11 = max(float(A[0, 0]) for A in P.build_model(variant="yaw").A)
+    assert m["yaw_vy_observable"] is False
+    assert m["yaw_max_unobservable_mode"] == pytest.approx(a11, rel=1e-3)   # 4 digits stored
+    assert m["yaw_slowest_pole_b"] == pytest.approx(-a11, rel=1e-4)
+    assert m["yaw_kernel_min_rel_distance"] < 1e-9
 
 
 def test_phi_derived_from_input_bounds_and_holds_on_run(m):
-    # phi = max|h'| (delta'_max + f'_max + (2 a_y + l_f r')/v_x): recomputed from its parts
+    """phi = max|h'| (delta'_max + f'_max + (2 a_y + l_f r')/v_x), recomputed from its parts;
+    the run's smooth |h'| stays below it."""
     adot = m["delta_dot_max"] + P.scale_fdot + (2 * m["phi_ay_max"]
                                                 + P.l_f * m["phi_rdot_max"]) / P.vx
     assert m["phi_alpha_dot_max"] == pytest.approx(adot, rel=1e-3)
     assert m["phi_design"] == pytest.approx(m["phi_dh_dalpha_max"] * adot, rel=1e-3)
-    # Assumption 2 on the run (checked after the design): the smooth part is far below phi;
-    # only the finite difference across the fault step (a Dirac) is larger
+    # rear-force error: a_y bound (D_f + (1 + rho) D_r)/m
+    assert m["phi_ay_max"] == pytest.approx((P.tire_f.D + (1 + P.rho) * P.tire_r.D) / P.m,
+                                            rel=1e-3)
     assert m["max_abs_hdot_smooth"] <= m["phi_design"]
-    assert m["max_abs_hdot"] > 5 * m["max_abs_hdot_smooth"]
-    assert m["max_slip_deg"] < np.degrees(P.alpha_fit_max)   # inside the identified range
+    assert m["max_slip_deg"] < np.degrees(P.alpha_fit_max)
 
 
-def test_designs_certified(m, a11):
+def test_designs_certified_and_decay_rate_respected(m):
     assert m["margin_a"] > 0 and m["margin_b"] > 0
+    assert m["lmi_status_a"] == m["lmi_status_b"] == "certified"
     assert m["remark1_certified"] is True
-    # no gain moves the unobservable v_y mode: both designs' slowest pole is rule 2's [A]_11
     for k in "ab":
-        assert m[f"slowest_pole_{k}"] == pytest.approx(-max(a11), rel=1e-3)
+        assert m[f"slowest_pole_{k}"] > P.alpha_design
     assert m["gamma_ratio_b_over_a"] == pytest.approx(m["gamma_b"] / m["gamma_a"], rel=1e-3)
 
 
-def test_unmeasured_vy_estimated_with_faults(m, a11):
-    # v_y is never measured: RMSE after the fault (actuator + gyro fault, noise, estimated
-    # premises) below 10 % of the RMS of the true v_y, for both designs
+def test_states_and_fault_estimated(m):
+    """With estimated premises, noise, the actuator + gyro fault and the rear-grip error:
+    v_y within 10 % of its RMS and better than the open-loop model; the fault within 10 % of
+    its offset (noise-free) and picked up within 0.2 s."""
     for k in "ab":
         assert m[f"rmse_vy_{k}"] < 0.1 * m["rms_vy_true"]
-        assert m[f"rmse_vy_{k}_noisefree"] < 0.02 * m["rms_vy_true"]
-        # the v_y error decays with the open-loop modes of the rules it visits: 10 % of its
-        # start between ln(10)/|[A_1]_11| and ln(10)/|[A_2]_11|
-        assert np.log(10) / -a11[0] <= m[f"vy_conv_time_{k}"] <= np.log(10) / -a11[1]
-        # and beats the open-loop model (same steering, no output injection)
         assert m[f"rmse_vy_{k}"] < m["rmse_vy_openloop"]
         assert m[f"rmse_f_{k}_noisefree"] < 0.1 * P.fault_offset
-        assert m[f"fault_delay_{k}"] < 0.2
-    # the premise error (estimate vs truth) is small and changes rmse_vy by < 50 %
-    assert 0 < m["premise_err_max"] < 0.1
-    assert m["rmse_vy_b_truepremise"] == pytest.approx(m["rmse_vy_b"], rel=0.5)
+        assert m[f"fault_delay_{k}"] < 0.2 and m[f"fault_delay_{k}_settles"] is True
 
 
-def test_comparison_variant_measures_vy(m):
-    # C = I: the "estimate" of v_y is the measurement, RMSE = sensor noise (+-5 % sampling)
-    assert m["full_rmse_vy_b"] == pytest.approx(m["full_sigma_vy"], rel=0.05)
-    # its only (b)-only cell is at phi = 0, which violates Assumption 2
-    assert m["full_map_n_only_b"] >= 1 and m["full_map_n_only_b_admissible"] == 0
-
-
-def test_feasibility_and_remark1(m):
-    assert m["map_containment"] is True
+def test_map_has_no_relaxed_only_cell_as_derived(m):
+    """The map of the paper's two theorems (no pole disk): every cell feasible for both (the
+    kernel test says [22] is feasible at every decay rate), so 0 relaxed-only cells; the
+    relaxed gamma is lower or equal up to the finite mu grid. Catches a solver failure of [22]
+    counted as a relaxed-only cell."""
+    assert m["map_n_feasible_a"] == m["map_n_cells"] and m["map_n_inconclusive"] == 0
+    assert m["map_n_only_b"] == m["map_n_only_b_admissible"] == 0
+    assert m["map_n_only_b_per_rho"] == [0, 0, 0]
+    assert m["map_min_ratio_admissible"] < 1
     ga, gb = np.array(m["map_gamma_a"], float), np.array(m["map_gamma_b"], float)
-    ok = np.isfinite(ga)
-    assert np.all(gb[ok] <= ga[ok, None] * (1 + 1e-4))
-    # alpha = 1.2 1/s is above rule 2's v_y mode (0.99 1/s): infeasible for both designs
-    assert not np.isfinite(ga[-1]) and not np.any(np.isfinite(gb[-1]))
-    assert m["map_n_only_b_admissible"] == 0
+    assert np.all(gb <= ga[:, None] * (1 + 1e-3))
 
 
 def test_claims_judged_by_rules(m):
+    """Every paper claim judged, none "not comparable"; the faster claims carry the measured
+    ratios; Remark 1 differs (0 cells), Fig. 3 a data row."""
     v = _verdicts(m)
     for c in v.values():
         assert c["rule"] != "(hand-written verdict)"
-    vy = v[("fig4_vy", "Fig. 4 (v_y, not measured)")]
-    assert vy["verdict"] == "reproduced" and vy["value"] <= 0.1
-    assert vy["value"] < m["rmse_vy_openloop"] / m["rms_vy_true"]
-    # Figs. 4-6: fixed by the reconstruction (v_y mode unobservable, gamma_b = gamma_a)
-    f6 = v[("fig6_fault", "Fig. 6 (fault estimation)")]
-    f45 = v[("fig5_yaw_rate", "Figs. 4-5 (faster convergence)")]
-    assert m["max_unobservable_mode"] < 0 and abs(m["gamma_ratio_b_over_a"] - 1) < 1e-3
-    assert f6["verdict"] == f45["verdict"] == "not comparable"
+    assert v["Fig. 3 (steering input)"]["kind"] == "data"
+    papers = [c for c in v.values() if c["kind"] == "paper"]
+    assert all(c["verdict"] != "not comparable" for c in papers)
+    f45 = v["Figs. 4-5 (faster state convergence)"]
+    assert f45["value"] == pytest.approx(m["vy_conv_time_b"] / m["vy_conv_time_a"], rel=1e-3)
+    f6 = v["Fig. 6 (faster fault estimation)"]
     assert f6["value"] == pytest.approx(m["fault_delay_b"] / m["fault_delay_a"], rel=1e-3)
-    assert f45["value"] == pytest.approx(1.0, abs=1e-3)       # the same mode for both designs
-    r1 = v[("feasibility_map", "Remark 1 / Sec. 6")]
-    assert r1["verdict"] == "partly" and r1["value"] == 0
-    r1f = v[("feasibility_map", "Remark 1, C = I comparison variant")]
-    assert r1f["verdict"] == "partly"
-    f7 = v[("fig7_membership_derivatives", "Fig. 7 / Assumption 2")]
-    assert f7["value"] == pytest.approx(m["max_abs_hdot_smooth"] / m["phi_design"], rel=1e-3)
-    assert f7["proves_little"] is (f7["value"] < 0.1)
+    r1 = v["Remark 1 / Sec. 6 (less conservative)"]
+    assert r1["verdict"] == "differs" and r1["value"] == 0
+    assert v["previous reconstruction (yaw-rate sensors)"]["kind"] == "diagnostic"
 
 
 def test_ekf_baseline(m):
-    # the dt-independent EKF rule follows the fault step faster than the per-sample rule
     assert m["fault_delay_ekf_tau"] < m["fault_delay_ekf"]
-    # (23a): the UIO's spurious fault before the fault is far below its settled error
     assert m["rmse_f_b_before_noisefree"] < 0.1 * m["rmse_f_b_settled_noisefree"]
-    # wall-clock numbers are timings, not metrics
     assert not any(k.startswith(("us_per_step", "cost_ratio")) for k in m)
+
+
+def _statuses(path):
+    nb = nbformat.read(str(path), as_version=4)
+    return [s for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+            for s in __import__("re").findall(r'data-status="([a-z ]+)"',
+                                              "".join(o.get("data", {}).get("text/html", "")))]
+
+
+def test_lesson_stubs_and_solutions(run_notebook):
+    """The lesson's five exercise stubs say "not attempted"; the solutions notebook's five
+    checkers say "correct"; the lesson records no metric."""
+    les = run_notebook("06_relaxed_uio")
+    sol = run_notebook("06_relaxed_uio_solutions")
+    assert _statuses(les["_executed"]) == ["not attempted"] * 5
+    assert _statuses(sol["_executed"]) == ["correct"] * 5
+    assert not (les["_dir"] / "metrics.json").exists()

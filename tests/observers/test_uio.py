@@ -1,6 +1,7 @@
 """Relaxed UIO (paper 003, reconstruction): identification, (23a)-(23c), existence
-conditions with v_y unmeasured, phi from input bounds, designs (a)/(b), containment of (a) in
-(b), certificates, estimated premises, error paths, fault estimation on a known case."""
+conditions (the "yaw" variant with v_y unmeasured, and the main model with C = I and a rear
+cornering-force error), phi from input bounds, designs (a)/(b), containment of (a) in (b),
+certificates, estimated premises, error paths, fault estimation on a known case."""
 
 import dataclasses
 
@@ -17,7 +18,9 @@ from vehicle_observers_papers.elyoussfi_2020 import scenario as sn
 
 @pytest.fixture(scope="module")
 def model():
-    return P.build_model()
+    """The "yaw" variant (gyro + wheel-speed yaw rate, 1/I_z error, v_y unmeasured): the
+    observer machinery is tested on it (designs at ``P.alpha_yaw``)."""
+    return P.build_model(variant="yaw")
 
 
 @pytest.fixture(scope="module")
@@ -32,8 +35,8 @@ def phi(model):
 
 @pytest.fixture(scope="module")
 def designs(model, st, phi):
-    ga = uio.design_quadratic(model, P.alpha_design, st, radius=P.radius)
-    gb = uio.design_relaxed(model, P.alpha_design, phi, P.mu_grid, st, radius=P.radius)
+    ga = uio.design_quadratic(model, P.alpha_yaw, st, radius=P.radius)
+    gb = uio.design_relaxed(model, P.alpha_yaw, phi, P.mu_grid, st, radius=P.radius)
     return ga, gb
 
 
@@ -346,7 +349,7 @@ def test_fault_estimation_known_case_uncertainty_decoupled(designs):
     remain) for both designs; v_y, never measured, converges through its open-loop mode."""
     errs = []
     for rho in (0.0, 0.2):
-        m = P.build_model(rho)
+        m = P.build_model(rho, variant="yaw")
         sc = sn.make_scenario(m, 5.0, 1e-3, 2.0, P.x0_true, seed=3, noise=False,
                                fault_kw={"amp": 0.0})
         for g in designs:
@@ -408,12 +411,15 @@ def test_undetectable_fault_raises(full):
         uio.structure(bad)
 
 
-@pytest.mark.parametrize("variant", ["yaw", "full"])
-def test_truth_model_is_the_uncertain_ts_form(variant):
+@pytest.mark.parametrize("variant,rear", [("yaw", True), ("full", True), ("adhesion", True),
+                                          ("adhesion", False)])
+def test_truth_model_is_the_uncertain_ts_form(variant, rear):
     """The simulated vehicle (1)+(2)+(10) equals sum h_i (A_i x + B_i (delta + f))
     + M F (N_a,i x + N_b,i (delta + f)): checked by a one-step difference quotient, for the
-    1/I_z error (main model) and the 1/m error (C = I variant)."""
-    model = P.build_model(variant=variant)
+    1/I_z error ("yaw"), the 1/m error ("full"), and the rear / front cornering-force error
+    (main model). Catches a wrong uncertainty direction M or a wrong sign in N_a (the
+    observer would then decouple something the vehicle does not do)."""
+    model = P.build_model(variant=variant, rear=rear)
     rng = np.random.default_rng(7)
     Na, Nb = model.uncertainty_matrices()
     dt = 1e-7
@@ -428,3 +434,156 @@ def test_truth_model_is_the_uncertain_ts_form(variant):
                          + model.M[:, 0] * F * (Na[i] @ x + Nb[i][:, 0] * u)[0])
                  for i in range(2))
         np.testing.assert_allclose(fd, ts, rtol=1e-5, atol=1e-6)
+
+
+# ------------------------------------- main model: C = I, rear cornering-force error ------
+@pytest.fixture(scope="module")
+def main():
+    m = P.build_model()
+    return m, uio.structure(m)
+
+
+def test_main_model_rank_conditions_and_vy_observable(main):
+    """Main model: rank(Cbar Mbar) = rank(Mbar) = 1 (Assumption 1) and (T Abar_i, Cbar) has
+    no unobservable mode (PBH on every eigenvalue, not only the unstable ones). Catches a
+    sensor / uncertainty choice that hides v_y (as the "yaw" variant does: there the PBH
+    test finds the open-loop v_y mode)."""
+    model, st = main
+    Cb, Mb = st["Cbar"], st["Mbar"]
+    assert np.linalg.matrix_rank(Cb @ Mb) == np.linalg.matrix_rank(Mb) == 1
+    for TA in st["TA"]:
+        for lam in np.linalg.eigvals(TA):
+            assert np.linalg.matrix_rank(np.vstack([lam * np.eye(3) - TA, Cb]), tol=1e-9) == 3
+    yaw = P.build_model(variant="yaw")
+    sy = uio.structure(yaw)
+    bad = [lam for lam in np.linalg.eigvals(sy["TA"][0])
+           if np.linalg.matrix_rank(np.vstack([lam * np.eye(3) - sy["TA"][0], sy["Cbar"]]),
+                                    tol=1e-9) < 3]
+    assert len(bad) == 1 and bad[0].real == pytest.approx(yaw.A[0][0, 0], rel=1e-9)
+
+
+def test_main_model_H_T_by_hand(main):
+    """(23a) by hand in the normalised coordinates of the design (X = S X_s, y = R y_s with
+    S = diag(0.5, 0.2, 0.02), R = diag(0.5, 0.2)): Cbar = [[1, 0, 0], [0, 1, 0.1]] (v_y
+    sensor; gyro reads r + f), Mbar = S^-1 [1/m, -l_r/I_z, 0]^T = [c1, c2, 0]^T with
+    c = [2/m, -5 l_r/I_z], Cbar Mbar = c, H = Mbar c^T / |c|^2 and T = I - H Cbar =
+    [[1 - c1^2/s, -c1 c2/s, -0.1 c1 c2/s], [-c1 c2/s, 1 - c2^2/s, -0.1 c2^2/s], [0, 0, 1]],
+    s = |c|^2. Catches a transposed pseudo-inverse, a wrong sign of the rear lever arm in M,
+    or H Cbar in the wrong order."""
+    model, st = main
+    np.testing.assert_allclose(st["Cbar"], [[1, 0, 0], [0, 1, 0.1]], atol=1e-15)
+    c1, c2 = 2 / P.m, -5 * P.l_r / P.I_z
+    s = c1 * c1 + c2 * c2
+    T = np.array([[1 - c1 * c1 / s, -c1 * c2 / s, -0.1 * c1 * c2 / s],
+                  [-c1 * c2 / s, 1 - c2 * c2 / s, -0.1 * c2 * c2 / s], [0, 0, 1]])
+    H = np.array([[c1 * c1, c1 * c2], [c1 * c2, c2 * c2], [0, 0]]) / s
+    np.testing.assert_allclose(st["Mbar"][:, 0], [c1, c2, 0], rtol=1e-12)
+    np.testing.assert_allclose(st["H"], H, atol=1e-12)
+    np.testing.assert_allclose(st["T"], T, atol=1e-12)
+    np.testing.assert_allclose(st["T"] @ st["Mbar"], 0, atol=1e-14)
+
+
+def test_main_model_error_poles_recomputed(main):
+    """The poles of (24) of a design at decay rate lambda = P.alpha_design, recomputed from
+    the gains by numpy (N_i = T Abar_i - K_i Cbar, SI time): every real part < -lambda and
+    |pole| < the disk radius; and the observer's L_i = K_i + N_i H. Catches gains mapped back
+    with the wrong time scale (a factor 200) or K taken as P^-1 W with the wrong matrix."""
+    model, st = main
+    phi = uio.phi_bound(model, P.delta_dot_max, P.scale_fdot, P.tire_f.D, P.tire_r.D)["phi"]
+    for g in (uio.design_quadratic(model, P.alpha_design, st, radius=P.radius),
+              uio.design_relaxed(model, P.alpha_design, phi, P.mu_grid, st, radius=P.radius)):
+        for i in range(2):
+            N = st["TA"][i] - g.K[i] @ st["Cbar"]
+            lam = np.linalg.eigvals(N)
+            assert lam.real.max() < -P.alpha_design and np.abs(lam).max() < P.radius
+            np.testing.assert_allclose(N, g.N[i], atol=1e-9)
+            np.testing.assert_allclose(g.L[i], g.K[i] + N @ st["H"], atol=1e-9)
+
+
+def _cvxpy_decay(TA, Cb, alpha, relaxed_phi=None, mu=1e-3):
+    """Independent cvxpy formulation (written here, not the library's builders): decay-rate
+    conditions of [22] (common P, W_i) or of Theorem 2 (P_i, slack G, Finsler scalar mu,
+    |h'| <= phi), without the L2 rows and without the pole disk, P <= I normalisation.
+    Returns True when a solution is found *and* certified by numpy eigenvalues (every
+    constraint matrix with margin > 1e-6), False otherwise (infeasible, or no certified
+    solution: Clarabel, then SCS)."""
+    import cvxpy as cp
+
+    n, p = 3, Cb.shape[0]
+    e = 1e-4
+    W = [cp.Variable((n, p)) for _ in TA]
+    cons, mats = [], []
+    if relaxed_phi is None:
+        P_ = cp.Variable((n, n), symmetric=True)
+        cons += [P_ >> e * np.eye(n), P_ << np.eye(n)]
+        for A, Wi in zip(TA, W):
+            M = P_ @ A - Wi @ Cb
+            mats.append(lambda M=M: -(M.value + M.value.T + 2 * alpha * P_.value))
+            cons.append(M + M.T + 2 * alpha * P_ << -e * np.eye(n))
+        mats.append(lambda: P_.value)
+    else:
+        Ps = [cp.Variable((n, n), symmetric=True) for _ in TA]
+        G = cp.Variable((n, n))
+        cons += [Pi >> e * np.eye(n) for Pi in Ps] + [Pi << np.eye(n) for Pi in Ps]
+        for A, Wi, Pi in zip(TA, W, Ps):
+            GN = G @ A - Wi @ Cb
+            for s in (1, -1):
+                M = cp.bmat([[s * relaxed_phi * (Ps[0] - Ps[1]) + 2 * alpha * Pi + GN + GN.T,
+                              Pi - G + mu * GN.T],
+                             [Pi - G.T + mu * GN, -mu * (G + G.T)]])
+                mats.append(lambda M=M: -(M.value + M.value.T) / 2)
+                cons.append((M + M.T) / 2 << -e * np.eye(2 * n))
+        mats += [lambda Pi=Pi: Pi.value for Pi in Ps]
+    prob = cp.Problem(cp.Minimize(0), cons)
+    try:
+        prob.solve(solver="CLARABEL")
+    except cp.error.SolverError:            # numerical failure: try SCS
+        prob.solve(solver="SCS", eps=1e-8, max_iters=50000)
+    if prob.status.startswith("infeasible") or prob.status in ("unbounded", "solver_error"):
+        return False
+    if any(f() is None for f in mats):
+        return False
+    return min(float(np.linalg.eigvalsh((f() + f().T) / 2).min()) for f in mats) > 1e-6
+
+
+def test_no_relaxed_only_cell_independent_cvxpy(main):
+    """The map's finding, checked by an independent formulation: on the main model the
+    kernel test finds no frozen membership with an unmeasured mode (distance > 0.1), and
+    cvxpy/SCS finds [22]'s decay conditions feasible at every decay rate where Theorem 2's
+    are (lambda = 1, 20 1/s, phi at the derived bound) -- no relaxed-only cell. On the "yaw"
+    variant the test finds the certificate (distance 0 at a frozen membership), and both
+    formulations are infeasible above its v_y mode (lambda = 1.5 1/s) and feasible below.
+    Catches a map that calls a cell relaxed-only because of a solver failure of [22], or a
+    kernel test that misses the unobservable v_y mode."""
+    model, st = main
+    phi = uio.phi_bound(model, P.delta_dot_max, P.scale_fdot, P.tire_f.D, P.tire_r.D)["phi"]
+    kt = uio.kernel_direction_test(st, [1.0, 20.0])
+    assert kt["min_rel_distance"] > 0.1 and np.all(kt["lp_margin"] > 0)
+    TA = st["TA"] / P.radius                   # time unit 1/radius, as the designs
+    for lam in (1.0, 20.0):
+        a = lam / P.radius
+        assert _cvxpy_decay(TA, st["Cbar"], a)
+        assert _cvxpy_decay(TA, st["Cbar"], a, phi / P.radius, 1e-3 * P.radius)
+    yaw = P.build_model(variant="yaw")
+    sy = uio.structure(yaw)
+    ky = uio.kernel_direction_test(sy, [0.5, 1.5])
+    assert ky["min_rel_distance"] < 1e-9
+    assert ky["lp_margin"][0] > 0 > ky["lp_margin"][1]
+    TAy = sy["TA"] / P.radius
+    assert _cvxpy_decay(TAy, sy["Cbar"], 0.5 / P.radius)
+    assert not _cvxpy_decay(TAy, sy["Cbar"], 1.5 / P.radius)
+    assert not _cvxpy_decay(TAy, sy["Cbar"], 1.5 / P.radius, 1.0 / P.radius, 1e-3 * P.radius)
+
+
+def test_planted_wrong_sign_is_caught(main):
+    """A planted sign error in the uncertainty direction (M = [1/m, +l_r/I_z]^T, which is
+    not an axle's force direction) is refused by the model, and the same error in the
+    decoupling (H computed for the flipped direction) leaves T Mbar != 0 for the true Mbar:
+    the uncertainty would leak into the error dynamics. Catches the rear lever-arm sign."""
+    model, st = main
+    with pytest.raises(ValueError, match="M must be"):
+        dataclasses.replace(model, M=np.array([[1 / P.m], [P.l_r / P.I_z]]))
+    Mw = st["Mbar"] * np.array([[1.0], [-1.0], [1.0]])        # flipped r component
+    Hw = uio.pinv_general_solution(st["Cbar"] @ Mw, Mw)
+    Tw = np.eye(3) - Hw @ st["Cbar"]
+    assert np.abs(Tw @ st["Mbar"]).max() > 0.1 * np.abs(st["Mbar"]).max()

@@ -20,6 +20,15 @@ def case():
     return {"model": model, "st": st, "gains": [ga, gb]}
 
 
+@pytest.fixture(scope="module")
+def yaw():
+    """The yaw-rate-only sensor set (exercises 1, 3 and 4 of the lesson)."""
+    model = P.build_model(variant="yaw")
+    st = uio.structure(model)
+    ga, gb = us.designs(model, st, P.alpha_yaw, us.phi_design(model)["phi"])
+    return {"model": model, "st": st, "gains": [ga, gb]}
+
+
 def _status(outcome):
     return outcome.status
 
@@ -64,7 +73,7 @@ def test_check_2_existence(case, monkeypatch):
     assert ex.check_2(lambda m: ..., case["model"]).status == EMPTY
 
 
-def test_check_3_slowest_pole(case, monkeypatch):
+def test_check_3_slowest_pole(yaw, monkeypatch):
     monkeypatch.setattr(ex, "check", _shown_off(ex.check))
 
     def good(st, g):
@@ -74,13 +83,13 @@ def test_check_3_slowest_pole(case, monkeypatch):
     def fastest(st, g):
         return min(np.linalg.eigvals(n).real.min() for n in g.N)
 
-    args = (case["st"], case["gains"], case["model"])
+    args = (yaw["st"], yaw["gains"], yaw["model"])
     assert ex.check_3(good, *args).status == CORRECT
     assert ex.check_3(fastest, *args).status == WRONG
     assert ex.check_3(lambda st, g: -0.989, *args).status == WRONG   # rule 1 is -4.05: hard-coded
 
 
-def test_check_4_fault_from_residual(case, monkeypatch):
+def test_check_4_fault_from_residual(yaw, monkeypatch):
     monkeypatch.setattr(ex, "check", _shown_off(ex.check))
 
     def good(sc):
@@ -91,9 +100,9 @@ def test_check_4_fault_from_residual(case, monkeypatch):
         m = sc["t"] >= sc["t_fault"] + 0.5
         return float(np.mean(sc["y"][m, 0]))
 
-    assert ex.check_4(good, case["model"]).status == CORRECT
-    assert ex.check_4(gyro_only, case["model"]).status == WRONG
-    assert ex.check_4(lambda sc: 0.012, case["model"]).status == WRONG   # one size for both
+    assert ex.check_4(good, yaw["model"]).status == CORRECT
+    assert ex.check_4(gyro_only, yaw["model"]).status == WRONG
+    assert ex.check_4(lambda sc: 0.012, yaw["model"]).status == WRONG   # one size for both
 
 
 def _shown_off(check):

@@ -38,6 +38,10 @@ from numba import njit
 from vehicle_observers.core.errors import ObserverArgumentError
 from vehicle_observers.models.tires import magic_formula
 
+#: :attr:`UncertainLateralTS.unc_row` of an error on the front / rear cornering force (both
+#: rows of the model)
+UNC_FRONT, UNC_REAR = 2, 3
+
 
 # ---------------------------------------------------------------- fuzzy cornering forces --
 def gbell(alpha, a, b, c):
@@ -137,8 +141,10 @@ class UncertainLateralTS:
 
     m [kg], I_z [kg m^2], l_f, l_r [m], vx [m/s], tyres: :class:`FuzzyTyres`.
     C (p, 2), F_s (p, 1): ``y = C x + F_s f``. M (2, 1): uncertainty direction, ``[1, 0]^T``
-    (relative error ``rho`` on ``1/m``) or ``[0, 1]^T`` (on ``1/I_z``); only the simulation
-    uses ``rho`` (the UIO decouples it).
+    (relative error ``rho`` on ``1/m``), ``[0, 1]^T`` (on ``1/I_z``) or ``[1/m, l_f/I_z]^T``
+    (relative error ``rho`` on the front cornering force, ``d = rho F(t) F_f`` [N]) or
+    ``[1/m, -l_r/I_z]^T`` (on the rear force, ``d = rho F(t) F_r``); only the
+    simulation uses ``rho`` (the UIO decouples it).
     D_w (p, p): noise standard deviations (unit-variance ``w``); scale_x (3,): error
     normalisation of ``[v_y, r, f]``; scale_fdot: fault-rate normalisation [rad/s].
     """
@@ -165,9 +171,11 @@ class UncertainLateralTS:
                                         f"row of C), got shape {self.F_s.shape}")
         self.F_s = self.F_s.reshape(len(self.C), 1)
         self.M = np.asarray(self.M, dtype=float).reshape(2, -1)
-        if self.M.shape != (2, 1) or np.count_nonzero(self.M) != 1:
-            raise ObserverArgumentError(f"M must be [1, 0]^T (1/m error) or [0, 1]^T (1/I_z error), got "
-                                        f"{self.M.ravel().tolist()}")
+        if self.M.shape != (2, 1) or not (np.count_nonzero(self.M) == 1 or any(np.allclose(
+                self.M, d, rtol=1e-12, atol=0.0) for d in self.axle_directions())):
+            raise ObserverArgumentError(f"M must be [1, 0]^T (1/m error), [0, 1]^T (1/I_z error), "
+                                        f"[1/m, l_f/I_z]^T (front) or [1/m, -l_r/I_z]^T (rear "
+                                        f"cornering-force error), got {self.M.ravel().tolist()}")
         self.D_w = np.atleast_2d(np.asarray(self.D_w, dtype=float))
         self.scale_x = np.asarray(self.scale_x, dtype=float)
         if self.vx <= 0:
@@ -201,9 +209,20 @@ class UncertainLateralTS:
         return np.array([self.rule_matrices(cf, cr)[1]
                          for cf, cr in zip(self.tyres.C_f, self.tyres.C_r)])
 
+    def axle_directions(self):
+        """Directions ``(M_front, M_rear)`` (2, 1) of an error on one axle's cornering force:
+        ``[1/m, l_f/I_z]^T`` and ``[1/m, -l_r/I_z]^T`` (per newton of force)."""
+        return (np.array([[1.0 / self.m], [self.l_f / self.I_z]]),
+                np.array([[1.0 / self.m], [-self.l_r / self.I_z]]))
+
     @property
     def unc_row(self) -> int:
-        """Equation hit by the uncertainty: 0 (``1/m``, v_y equation) or 1 (``1/I_z``, r)."""
+        """What the uncertainty hits: 0 (``1/m``, v_y equation), 1 (``1/I_z``, r equation) or
+        :data:`UNC_FRONT` = 2 (the front cornering force ``F_f``, both equations, direction
+        ``M = [1/m, l_f/I_z]^T``) or :data:`UNC_REAR` = 3 (the rear force ``F_r``,
+        ``M = [1/m, -l_r/I_z]^T``): a road-adhesion / stiffness error on one axle."""
+        if np.count_nonzero(self.M) == 2:
+            return UNC_FRONT if self.M[1, 0] > 0 else UNC_REAR
         return int(np.flatnonzero(self.M[:, 0])[0])
 
     def uncertainty_matrices(self):
@@ -211,6 +230,16 @@ class UncertainLateralTS:
         of A_i, B_i selected by ``M`` (scaled by ``1/M[row]``)."""
         k = self.unc_row
         Na, Nb = [], []
+        if k == UNC_FRONT:       # d = rho F C_fi alpha_f, alpha_f = delta - (v_y + l_f r)/v_x
+            for cf in self.tyres.C_f:
+                Na.append(self.rho * cf * np.array([[-1.0 / self.vx, -self.l_f / self.vx]]))
+                Nb.append(self.rho * cf * np.array([[1.0]]))
+            return np.array(Na), np.array(Nb)
+        if k == UNC_REAR:        # d = rho F C_ri alpha_r, alpha_r = -(v_y - l_r r)/v_x
+            for cr in self.tyres.C_r:
+                Na.append(self.rho * cr * np.array([[-1.0 / self.vx, self.l_r / self.vx]]))
+                Nb.append(np.zeros((1, 1)))
+            return np.array(Na), np.array(Nb)
         for A, B in zip(self.A, self.B):
             row = A[k].copy()
             if k == 0:
@@ -276,9 +305,17 @@ def _truth_rhs(x, delta, f, Fu, P, out):
         h1 = 1.0 / (1.0 + u ** (2.0 * P[TP_B]))
         Ff = (h1 * P[TP_CF1] + (1 - h1) * P[TP_CF2]) * af
         Fr = (h1 * P[TP_CR1] + (1 - h1) * P[TP_CR2]) * ar
-    k = P[TP_UNC_ROW]           # 0: uncertainty on 1/m, 1: on 1/I_z
-    out[0] = (1.0 + rho * Fu * (1.0 - k)) * (Ff + Fr) / m - vx * x[1]
-    out[1] = (1.0 + rho * Fu * k) * (lf * Ff - lr * Fr) / Iz
+    k = P[TP_UNC_ROW]           # 0: uncertainty on 1/m, 1: on 1/I_z, 2: on F_f, 3: on F_r
+    if k > 1.5:
+        if k > 2.5:
+            Fr = (1.0 + rho * Fu) * Fr
+        else:
+            Ff = (1.0 + rho * Fu) * Ff
+        out[0] = (Ff + Fr) / m - vx * x[1]
+        out[1] = (lf * Ff - lr * Fr) / Iz
+    else:
+        out[0] = (1.0 + rho * Fu * (1.0 - k)) * (Ff + Fr) / m - vx * x[1]
+        out[1] = (1.0 + rho * Fu * k) * (lf * Ff - lr * Fr) / Iz
 
 
 @njit(cache=True)

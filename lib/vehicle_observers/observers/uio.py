@@ -229,12 +229,13 @@ def _time_scaled(st, radius):
 
 
 def design_quadratic(model: UncertainLateralTS, alpha: float, st: dict | None = None,
-                     radius: float = 200.0, eps: float = 1e-6) -> UIOGains:
+                     radius: float = 200.0, eps: float = 1e-6, disk: bool = True) -> UIOGains:
     """Design (a), the non-relaxed conditions of [22]: common quadratic Lyapunov matrix.
 
     Minimises ``g = gamma^2`` s.t. ``P > 0`` and, per rule i,
     ``[[2 alpha P + He(P T Abar_i - W_i Cbar), P B_i, I], [*, -g I, D_e^T], [*, *, -I]] < 0``.
-    Raises InfeasibleDesign / CertificationError (lmi.LMIDesign).
+    ``disk=False`` drops the pole disk (the paper's conditions alone; ``radius`` then only sets
+    the time unit). Raises InfeasibleDesign / CertificationError (lmi.LMIDesign).
     """
     _check_design_args("design_quadratic", alpha, radius, eps)
     st0 = structure(model) if st is None else st
@@ -260,10 +261,11 @@ def design_quadratic(model: UncertainLateralTS, alpha: float, st: dict | None = 
                          [np.eye(3), De, -np.eye(3)]])
         d.negative(f"Phi[{i + 1}]", build)
 
-        def disk(V, i=i):
+        def disk_lmi(V, i=i):
             PN = V.P @ st["TA"][i] - V[f"W{i}"] @ st["Cbar"]
             return bmat([[V.P, PN.T], [PN, V.P]])
-        d.positive(f"disk[{i + 1}]", disk)
+        if disk:
+            d.positive(f"disk[{i + 1}]", disk_lmi)
     sol = d.solve(objective=lambda V: V.g)
     P = sol["P"]
     K = np.array([np.linalg.solve(P, sol[f"W{i}"]) for i in range(r)]) / tau
@@ -292,7 +294,7 @@ def relaxed_builders(st, alpha, phi, mu):
     return build
 
 
-def _relaxed_design(st0, alpha, phi, mu, eps, radius=200.0):
+def _relaxed_design(st0, alpha, phi, mu, eps, radius=200.0, disk=True):
     """LMIDesign of Theorem 2 in the time unit 1/radius (alpha, phi [1/s], mu [s])."""
     st = _time_scaled(st0, radius)
     tau = st["tau"]
@@ -312,23 +314,25 @@ def _relaxed_design(st0, alpha, phi, mu, eps, radius=200.0):
             d.negative(f"Ups[{i + 1},{'+' if s > 0 else '-'}]",
                        lambda V, i=i, s=s: build(V, i, s))
 
-    def disk(V, i):
+    def disk_lmi(V, i):
         GN = V.G @ st["TA"][i] - V[f"W{i}"] @ st["Cbar"]
         Pi = V[f"P{i}"]
         return bmat([[Pi, GN.T], [GN, V.G + V.G.T - Pi]])
-    for i in range(r):
-        d.positive(f"disk[{i + 1}]", lambda V, i=i: disk(V, i))
+    if disk:
+        for i in range(r):
+            d.positive(f"disk[{i + 1}]", lambda V, i=i: disk_lmi(V, i))
     return d
 
 
 def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6, 1e-3, 1e-2),
                    st: dict | None = None, radius: float = 200.0,
-                   eps: float = 1e-6) -> UIOGains:
+                   eps: float = 1e-6, disk: bool = True) -> UIOGains:
     """Design (b), Theorem 2: fuzzy Lyapunov matrices + Finsler slack ``G``, scalar ``mu``.
 
     ``mu`` may be a sequence: the LMIs are solved for each value and the lowest certified
     gamma kept (Remark 2: mu is "chosen ... in such a way that the conditions are
-    feasible"). Raises InfeasibleDesign if no mu works.
+    feasible"). ``disk=False``: Theorem 2 alone, without the pole disk. Raises
+    InfeasibleDesign if no mu works.
     """
     who = "design_relaxed"
     _check_design_args(who, alpha, radius, eps)
@@ -339,7 +343,7 @@ def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6
     st = structure(model) if st is None else st
     best, errs = None, []
     for m_ in mus:
-        d = _relaxed_design(st, alpha, phi, float(m_), eps, radius)
+        d = _relaxed_design(st, alpha, phi, float(m_), eps, radius, disk)
         try:
             sol = d.solve(objective=lambda V: V.g)
         except InfeasibleDesign as exc:
@@ -391,21 +395,25 @@ def relaxed_from_quadratic(gains_a: UIOGains, slack: float = 1e-3, n_rules: int 
 
 
 def relaxed_certificate(st, values: dict, alpha: float, phi: float, mu: float,
-                        radius: float = 200.0):
+                        radius: float = 200.0, disk: bool = True):
     """Independent eigenvalue certificate of Theorem 2's LMIs at given numeric values
     (time-scaled variables, as stored in an :class:`LMISolution`)."""
-    return _relaxed_design(st, alpha, phi, mu, 1e-7, radius).certify(values)
+    return _relaxed_design(st, alpha, phi, mu, 1e-7, radius, disk).certify(values)
 
 
 # ------------------------------------------------------------------- feasibility sweep --
 def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius: float = 200.0,
-                    gamma_level: float | None = None) -> dict:
+                    gamma_level: float | None = None, disk: bool = True,
+                    eps: float = 1e-6) -> dict:
     """Best certified gamma of (a) (depends on alpha only) and (b) on an alpha x phi grid.
 
     Returns ``{"alpha", "phi", "gamma_a" (na,), "gamma_b" (na, nphi), "margin_a",
-    "margin_b", "feasible_a" (na, nphi), "feasible_b"}`` with ``nan`` gammas where the
-    LMIs have no certified solution; "feasible" means a certified solution with
-    ``gamma <= gamma_level`` (any gamma when ``gamma_level`` is None).
+    "margin_b", "status_a" (na,), "status_b" (na, nphi), "feasible_a" (na, nphi),
+    "feasible_b"}`` with ``nan`` gammas where the LMIs have no solution whose signs check;
+    "feasible" means a solution whose certificate status is ``"certified"`` (margins above
+    round-off, :class:`~vehicle_observers.design.lmi.Certificate`; an ``"inconclusive"``
+    one is not feasible) with ``gamma <= gamma_level`` (any gamma when None). ``eps``: LMI
+    strictness (time-scaled units).
     """
     st = structure(model) if st is None else st
     alphas, phis = np.asarray(alphas, float), np.asarray(phis, float)
@@ -413,24 +421,27 @@ def feasibility_map(model, alphas, phis, mu=(1e-6, 1e-3, 1e-2), st=None, radius:
     ma = np.full(len(alphas), np.nan)
     gb = np.full((len(alphas), len(phis)), np.nan)
     mb = np.full_like(gb, np.nan)
+    sa = np.full(len(alphas), "infeasible", dtype=object)
+    sb = np.full(gb.shape, "infeasible", dtype=object)
     for k, a in enumerate(alphas):
         try:
-            g = design_quadratic(model, a, st, radius=radius)
-            ga[k], ma[k] = g.gamma, g.min_margin
+            g = design_quadratic(model, a, st, radius=radius, disk=disk, eps=eps)
+            ga[k], ma[k], sa[k] = g.gamma, g.min_margin, g.certificate.status
         except InfeasibleDesign:
             pass
         for j, ph in enumerate(phis):
             try:
-                g = design_relaxed(model, a, ph, mu, st, radius=radius)
-                gb[k, j], mb[k, j] = g.gamma, g.min_margin
+                g = design_relaxed(model, a, ph, mu, st, radius=radius, disk=disk, eps=eps)
+                gb[k, j], mb[k, j], sb[k, j] = g.gamma, g.min_margin, g.certificate.status
             except InfeasibleDesign:
                 pass
     lev = np.inf if gamma_level is None else gamma_level
-    fa = np.broadcast_to((np.isfinite(ga) & (np.nan_to_num(ga, nan=np.inf) <= lev))[:, None],
-                         gb.shape).copy()
-    fb = np.isfinite(gb) & (np.nan_to_num(gb, nan=np.inf) <= lev)
+    fa = np.broadcast_to((np.isfinite(ga) & (sa == "certified")
+                          & (np.nan_to_num(ga, nan=np.inf) <= lev))[:, None], gb.shape).copy()
+    fb = np.isfinite(gb) & (sb == "certified") & (np.nan_to_num(gb, nan=np.inf) <= lev)
     return {"alpha": alphas, "phi": phis, "gamma_a": ga, "gamma_b": gb, "margin_a": ma,
-            "margin_b": mb, "feasible_a": fa, "feasible_b": fb}
+            "margin_b": mb, "status_a": sa, "status_b": sb, "feasible_a": fa,
+            "feasible_b": fb}
 
 
 def phi_bound(model: UncertainLateralTS, delta_dot_max: float, fdot_max: float, D_f: float,
@@ -456,8 +467,10 @@ def phi_bound(model: UncertainLateralTS, delta_dot_max: float, fdot_max: float, 
     Df, Dr = float(D_f), float(D_r)
     k_m = 1 + model.rho * (model.unc_row == 0)
     k_i = 1 + model.rho * (model.unc_row == 1)
-    ay = k_m * (Df + Dr) / model.m
-    rdot = k_i * (model.l_f * Df + model.l_r * Dr) / model.I_z
+    k_f = 1 + model.rho * (model.unc_row == 2)          # error on the front force itself
+    k_r = 1 + model.rho * (model.unc_row == 3)          # on the rear force
+    ay = k_m * (k_f * Df + k_r * Dr) / model.m
+    rdot = k_i * (model.l_f * k_f * Df + model.l_r * k_r * Dr) / model.I_z
     adot = delta_dot_max + fdot_max + (2 * ay + model.l_f * rdot) / model.vx
     return {"delta_dot_max": float(delta_dot_max), "dh_dalpha_max": dh, "ay_max": ay,
             "rdot_max": rdot, "alpha_dot_max": adot,
@@ -701,3 +714,57 @@ class UIObserver(FixedStepObserver):
                                  self.dt)
         return UIOTrajectory(t, Xs * g.S, self.state_names, seconds=sec,
                              estimator=type(self).__name__, h=h)
+
+
+# ------------------------------------------ when can the relaxation enlarge the feasible set --
+def kernel_direction_test(st: dict, alphas=(0.0,)) -> dict:
+    """Structural test of when Theorem 2 can be feasible where the non-relaxed design of [22]
+    is not, for a one-dimensional ``ker Cbar`` (two outputs on the three augmented states).
+
+    Derivation (this reproduction, not printed in the paper). In (a) the gains enter only
+    through ``-W_i Cbar``; by the projection (elimination) lemma, with ``n`` spanning
+    ``ker Cbar``, the decay LMI ``He(P T Abar_i - W_i Cbar) + 2 alpha P < 0`` has a solution
+    ``W_i`` iff ``n^T (He(P T Abar_i) + 2 alpha P) n < 0``, i.e. with ``v = P n``:
+    ``v^T (T Abar_i + alpha I) n < 0`` for every rule and ``v^T n > 0`` (any such ``v`` is
+    ``P n`` for some ``P > 0``). The L2 rows only ask for a large enough ``gamma`` (scale
+    ``P, W`` by ``k`` and ``gamma^2`` by ``k^2``). By Gordan's alternative this linear
+    system has no solution iff some convex combination ``A(lam) = sum lam_i T Abar_i`` has
+    ``n`` as an eigenvector with eigenvalue ``>= -alpha``; that ``n`` is then a mode of
+    ``A(lam) - K Cbar`` for *every* gain ``K``, so the frozen membership ``h = lam``
+    (``h' = 0`` satisfies Assumption 2) already defeats Theorem 2. Hence: (a) feasible iff
+    (b) can be, for every ``phi`` and every uncertainty size (``T Mbar = 0`` removes
+    ``rho``): a relaxed-only cell needs ``dim ker Cbar >= 2``.
+
+    Computed here: ``n``, ``a_i = T Abar_i n`` (SI time, normalised states), the smallest
+    relative distance of ``A(lam) n`` from ``span(n)`` over ``lam`` in the simplex (two
+    rules: closed form; zero means a certificate of infeasibility exists), and for each
+    ``alpha`` [1/s] the LP margin ``max_v min_i -v^T (a_i + alpha n)`` with ``v^T n = 1``,
+    ``|v|_inf <= 1e3`` (> 0: (a)'s decay conditions are feasible, solved by scipy's HiGHS).
+    Raises :class:`AssumptionError` unless ``dim ker Cbar == 1`` and there are two rules.
+    """
+    from scipy.linalg import null_space
+    from scipy.optimize import linprog
+
+    Cb, TA = st["Cbar"], st["TA"]
+    ker = null_space(Cb)
+    if ker.shape[1] != 1 or len(TA) != 2:
+        raise AssumptionError(f"kernel_direction_test needs dim ker Cbar = 1 and two rules, got "
+                              f"{ker.shape[1]} and {len(TA)}")
+    n = ker[:, 0]
+    a = np.array([A @ n for A in TA])
+    Pi = np.eye(len(n)) - np.outer(n, n)
+    p1, dp = Pi @ a[0], Pi @ (a[1] - a[0])
+    lam = float(np.clip(-(p1 @ dp) / max(dp @ dp, 1e-300), 0.0, 1.0))
+    grid = np.unique(np.r_[np.linspace(0.0, 1.0, 1001), lam])
+    rel = [np.linalg.norm(Pi @ ((1 - g) * a[0] + g * a[1]))
+           / max(np.linalg.norm((1 - g) * a[0] + g * a[1]), 1e-300) for g in grid]
+    k = int(np.argmin(rel))
+    margins = []
+    for al in np.atleast_1d(np.asarray(alphas, float)):
+        c = np.r_[np.zeros(len(n)), -1.0]                       # maximise s
+        A_ub = np.array([np.r_[ai + al * n, 1.0] for ai in a])  # v^T(a_i + al n) + s <= 0
+        res = linprog(c, A_ub=A_ub, b_ub=np.zeros(len(a)), A_eq=[np.r_[n, 0.0]], b_eq=[1.0],
+                      bounds=[(-1e3, 1e3)] * len(n) + [(None, 1e6)], method="highs")
+        margins.append(float(-res.fun) if res.status == 0 else float("nan"))
+    return {"n": n, "a": a, "lam_closest": float(grid[k]), "min_rel_distance": float(rel[k]),
+            "alphas": np.atleast_1d(np.asarray(alphas, float)), "lp_margin": np.array(margins)}

@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 
 import matplotlib.pyplot as plt
-import matplotlib.ticker as mticker
 import numpy as np
 from vehicle_observers.baselines import uio_ekf as ub
 from vehicle_observers.core.metrics import rmse
@@ -93,7 +92,26 @@ def structure_metrics(model: ul.UncertainLateralTS, st: dict) -> dict:
             "T_Mbar_residual": (float(np.abs(st["T"] @ Mb).max()), "", "max |T Mbar| of (23a) (0 exactly)"),
             "unobservable_modes": (modes, "1/s", "unobservable modes of (T Abar_i, Cbar), per rule"),
             "max_unobservable_mode": (max(modes) if modes else None, "1/s",
-                                      "detectable if < 0 (None: observable)")}
+                                      "detectable if < 0 (None: observable)"),
+            "vy_observable": (not modes, "", "(T Abar_i, Cbar) observable for every rule: v_y "
+                                            "seen through the decoupled outputs"),
+            "dim_ker_Cbar": (int(Cb.shape[1] - np.linalg.matrix_rank(Cb)), "",
+                             "dimension of ker Cbar (unmeasured augmented directions)")}
+
+
+def kernel_metrics(st: dict, alphas) -> dict:
+    """The structural test of :func:`uio.kernel_direction_test` as metrics: the smallest
+    relative distance of ``sum lam_i T Abar_i n`` from ``span(n)`` (0: some frozen membership
+    has an unmeasured mode no gain moves; > 0: the non-relaxed decay conditions are feasible
+    at every alpha, so no cell can be relaxed-only) and the LP margins at ``alphas`` [1/s]."""
+    kt = uio.kernel_direction_test(st, alphas)
+    return {"kernel_min_rel_distance": (kt["min_rel_distance"], "",
+                                        "min over lam of |Pi A(lam) n| / |A(lam) n|"),
+            "kernel_lam_closest": (kt["lam_closest"], "", "membership h_2 where it is smallest"),
+            "kernel_lp_alpha": (kt["alphas"], "1/s", "decay rates of the LP check"),
+            "kernel_lp_margin": (kt["lp_margin"], "",
+                                 "LP margin of (a)'s reduced decay conditions (> 0: feasible), "
+                                 "|v| <= 1e3")}
 
 
 def unobservable_modes(st: dict, tol: float = 1e-8) -> list[float]:
@@ -109,10 +127,11 @@ def unobservable_modes(st: dict, tol: float = 1e-8) -> list[float]:
 
 
 def designs(model: ul.UncertainLateralTS, st: dict, alpha: float, phi: float, mu=P.mu_grid,
-            eps: float | None = None):
+            eps: float | None = P.lmi_eps):
     """Designs (a) [22] (common quadratic) and (b) Theorem 2 (relaxed, ``mu`` line-searched
     over ``mu`` [s]) at decay rate ``alpha`` [1/s] and ``|h'| <= phi`` [1/s], poles in
-    ``|lambda| < P.radius`` [1/s]; ``eps``: LMI strictness (default: the designs' own).
+    ``|lambda| < P.radius`` [1/s]; ``eps``: LMI strictness (default ``P.lmi_eps``, margins
+    above round-off; None: the designs' own 1e-6).
     Returns ``(gains_a, gains_b)``."""
     kw = {} if eps is None else {"eps": eps}
     ga = uio.design_quadratic(model, alpha, st, radius=P.radius, **kw)
@@ -130,7 +149,8 @@ def design_metrics(ga: uio.UIOGains, gb: uio.UIOGains) -> dict:
     """Certified L2 gains gamma and their ratio, line-searched ``mu`` [s], certificate
     margins (time-scaled units) and status, slowest pole [1/s] and largest gain entry of (a),
     (b)."""
-    out = {"gamma_a": (ga.gamma, "", f"design (a) [22], alpha = {ga.alpha:g} 1/s"),
+    out = {"design_alpha": (ga.alpha, "1/s", "decay rate of both simulated designs"),
+           "gamma_a": (ga.gamma, "", f"design (a) [22], alpha = {ga.alpha:g} 1/s"),
            "gamma_b": (gb.gamma, "", f"design (b) Theorem 2, phi = {gb.phi:.3g} 1/s"),
            "gamma_ratio_b_over_a": (gb.gamma / ga.gamma, "", "at the design point"),
            "mu_b": (gb.mu, "s", "line-searched Finsler scalar")}
@@ -169,10 +189,38 @@ def simulation(model: ul.UncertainLateralTS, gains: dict, t_end: float, seed: in
     sc0 = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, noise=False,
                             **kw)
     return {"t_end": t_end, "seed": seed, "sc": sc, "sc0": sc0, "X_openloop": open_loop(model, sc),
+            "gains_alpha": float(gains["b"].alpha),
             "ev": {k: sn.evaluate(g, sc, model) for k, g in gains.items()},
             "ev0": {k: sn.evaluate(g, sc0, model) for k, g in gains.items()},
             "evt": sn.evaluate(gains["b"], sc, model, premise="true"),
             "evt0": sn.evaluate(gains["b"], sc0, model, premise="true")}
+
+
+def alpha_sensitivity(model: ul.UncertainLateralTS, st: dict, phi: float, seed: int,
+                      alphas=P.alpha_sensitivity, t_end: float = 12.0) -> dict:
+    """The two "faster" ratios at other decay rates ``alphas`` [1/s] (both designs with the
+    pole disk, the noise-free run of :func:`simulation` over ``t_end`` s): v_y convergence
+    time (b) / (a) and fault delay (b) / (a), and gamma_b / gamma_a. Shows whether the verdict
+    at ``P.alpha_design`` depends on that choice."""
+    out = {"alpha": np.asarray(alphas, float), "conv": [], "delay": [], "gamma": []}
+    sc0 = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed, noise=False,
+                           fault_kw={"offset": P.fault_offset, "amp": P.fault_amp})
+    for a in out["alpha"]:
+        ga, gb = designs(model, st, float(a), phi)
+        ea, eb = sn.evaluate(ga, sc0, model), sn.evaluate(gb, sc0, model)
+        ca, cb = (convergence_time(sc0["t"], e["err"][:, 0], sc0["t_fault"]) for e in (ea, eb))
+        out["conv"].append(cb / ca)
+        out["delay"].append(eb["fault_delay"] / ea["fault_delay"])
+        out["gamma"].append(gb.gamma / ga.gamma)
+    return {k: np.asarray(v, float) for k, v in out.items()}
+
+
+def sensitivity_metrics(sens: dict) -> dict:
+    """Ratios (b) / (a) of :func:`alpha_sensitivity` per decay rate."""
+    return {"sens_alpha": (sens["alpha"], "1/s", "decay rates of the sensitivity runs"),
+            "sens_conv_ratio": (sens["conv"], "", "v_y convergence time (b) / (a), noise-free"),
+            "sens_delay_ratio": (sens["delay"], "", "fault delay (b) / (a), noise-free"),
+            "sens_gamma_ratio": (sens["gamma"], "", "gamma_b / gamma_a (with the pole disk)")}
 
 
 def open_loop(model: ul.UncertainLateralTS, sc: dict) -> np.ndarray:
@@ -267,33 +315,31 @@ def rmse_table(*evals: tuple[str, dict]) -> Table:
     return show_table([{"estimator": k, **{m: e[m] for m in keys}} for k, e in evals])
 
 
-# --------------------------------------------------------- C = I comparison variant ------
-def full_variant(seed: int, t_end: float, quick: bool) -> dict:
-    """The first version of this reproduction (``P.build_model(variant="full")``: C = I,
-    v_y measured, uncertainty on 1/m), designs at ``alpha = P.alpha_full``,
-    ``phi = P.phi_full`` and its feasibility map on alpha in {0, 15} x phi in {0, 10}.
-    Returns the model, structure, gains, noisy-run evaluation of (b) and the map."""
-    model = P.build_model(variant="full")
+# ------------------------------------------- previous reconstruction, as a diagnostic ----
+def yaw_variant(quick: bool) -> dict:
+    """The previous main problem (``P.build_model(variant="yaw")``: gyro + wheel-speed yaw
+    rate, fault on the gyro, error on ``1/I_z``; v_y not measured): its structure, the kernel
+    test and both designs (with the pole disk) at ``P.alpha_yaw``. No simulation."""
+    model = P.build_model(variant="yaw")
     st = uio.structure(model)
-    ga, gb = designs(model, st, P.alpha_full, P.phi_full)
-    sc = sn.make_scenario(model, t_end, P.dt, P.t_fault, P.x0_true, seed=seed)
-    fm = uio.feasibility_map(model, [0.0, 15.0], [0.0, P.phi_full], P.mu_grid, st, P.radius,
-                             gamma_level=0.55)
-    fm["ratio"] = fm["gamma_b"] / fm["gamma_a"][:, None]
-    return {"model": model, "st": st, "ga": ga, "gb": gb, "sc": sc, "fm": fm,
-            "evb": sn.evaluate(gb, sc, model)}
+    phi = phi_design(model)["phi"]
+    ga, gb = designs(model, st, P.alpha_yaw, phi)
+    return {"model": model, "st": st, "ga": ga, "gb": gb, "phi": phi}
 
 
-def full_variant_metrics(fv: dict) -> dict:
-    """v_y RMSE of (b) in the C = I variant against the v_y sensor noise, the certificate
-    status of its designs, and its map (feasible at gamma <= 0.55, the level of its first
-    version) restricted to phi >= 10."""
-    out = {"full_rmse_vy_b": (fv["evb"]["rmse_vy"], "m/s", "C = I: v_y is measured"),
-           "full_sigma_vy": (P.sigma_vy, "m/s", "v_y sensor noise"),
-           "full_gamma_ratio": (fv["gb"].gamma / fv["ga"].gamma, "", "alpha = 2, phi = 10"),
-           "full_lmi_status": ([fv[k].solution.certificate.status for k in ("ga", "gb")], "",
-                               "LMI certificates of (a), (b) at alpha = 2, phi = 10")}
-    return out | {f"full_{k}": v for k, v in feasibility_metrics(fv["fm"], P.phi_full).items()}
+def yaw_variant_metrics(yv: dict) -> dict:
+    """Unobservable modes, kernel test (a certificate at the frozen membership it finds)
+    and the gamma ratio of the previous reconstruction."""
+    sm = structure_metrics(yv["model"], yv["st"])
+    km = kernel_metrics(yv["st"], [0.0, 1.0])
+    return {"yaw_vy_observable": sm["vy_observable"],
+            "yaw_max_unobservable_mode": sm["max_unobservable_mode"],
+            "yaw_kernel_min_rel_distance": km["kernel_min_rel_distance"],
+            "yaw_kernel_lp_margin": km["kernel_lp_margin"],
+            "yaw_gamma_ratio": (yv["gb"].gamma / yv["ga"].gamma, "",
+                                f"gamma_b / gamma_a at alpha = {P.alpha_yaw:g} 1/s"),
+            "yaw_slowest_pole_b": (float(-yv["gb"].poles.real.max()), "1/s",
+                                   "slowest pole of (b): the open-loop v_y mode")}
 
 
 # ------------------------------------------------------------------ EKF baseline ---------
@@ -370,39 +416,61 @@ def cost_timings(sim: dict, gb: uio.UIOGains, model, evk: dict) -> dict:
 
 
 # --------------------------------------------------------------- feasibility map ---------
-def feasibility(model: ul.UncertainLateralTS, st: dict, phi: float, quick: bool) -> dict:
-    """Best certified gamma of (a) and (b) on the (alpha [1/s], phi [1/s]) grid
-    (:func:`uio.feasibility_map`, feasible = a certified solution exists), plus ``ratio``
-    = gamma_b / gamma_a. alpha up to 1.2 1/s (above the slowest unobservable v_y mode
-    0.99 1/s); phi in {0, the derived bound ``phi``, 100}. Quick: alpha in {0.5, 1.2},
-    phi in {0, phi}."""
-    alphas = np.array([0.5, 1.2]) if quick else np.array([0.0, 0.5, 0.9, 0.95, 1.2])
-    phis = np.array([0.0, phi]) if quick else np.array([0.0, phi, 100.0])
-    fm = uio.feasibility_map(model, alphas, phis, P.mu_grid, st, P.radius, None)
+def phi_of_rho(model: ul.UncertainLateralTS, rhos=P.rho_map) -> np.ndarray:
+    """Assumption 2 bound phi [1/s] (:func:`phi_design`) for each uncertainty size ``rho``
+    [-]: the only place the size enters (``T Mbar = 0`` removes it from the LMIs)."""
+    return np.array([phi_design(dataclasses.replace(model, rho=float(r)))["phi"] for r in rhos])
+
+
+def feasibility(model: ul.UncertainLateralTS, st: dict, quick: bool) -> dict:
+    """Feasibility of the paper's two theorems *without* the implementation's pole disk
+    (:func:`uio.feasibility_map`, ``disk=False``; feasible = an independently certified
+    solution exists) over decay rate alpha [1/s] x bound phi [1/s], with phi at the derived
+    bounds of the uncertainty sizes ``P.rho_map`` (and 0, which violates Assumption 2, and
+    30). Adds ``ratio`` = gamma_b / gamma_a and ``phi_rho`` (bound per rho). Quick: alpha in
+    {2, 20}, phi the bound of the main rho."""
+    phi_rho = phi_of_rho(model)
+    alphas = np.array([2.0, 20.0]) if quick else np.array([1.0, 5.0, 20.0, 50.0])
+    phis = (np.array([phi_rho[1]]) if quick
+            else np.r_[0.0, phi_rho, 30.0])
+    fm = uio.feasibility_map(model, alphas, phis, P.mu_grid, st, P.radius, None, disk=False,
+                             eps=P.lmi_eps)
     fm["ratio"] = fm["gamma_b"] / fm["gamma_a"][:, None]
+    fm["phi_rho"] = phi_rho
     return fm
 
 
 def feasibility_metrics(fm: dict, phi: float) -> dict:
-    """Grid, gammas, containment feasible(a) <= feasible(b), counts, and on the cells with
-    ``phi_grid >= phi`` (Assumption 2 honoured): cells where only (b) is feasible and the
-    range of gamma_b / gamma_a."""
+    """Grid, gammas, counts of cells per feasible design, and the cells where only (b) is
+    feasible: in all, with ``phi >= phi`` (Assumption 2 at the main rho) and per uncertainty
+    size (``phi >= phi_rho[k]``); range of gamma_b / gamma_a where both are feasible."""
     ratio, ok = fm["ratio"], fm["phi"][None, :] >= phi - 1e-12
     only_b = fm["feasible_b"] & ~fm["feasible_a"]
+    only_a = fm["feasible_a"] & ~fm["feasible_b"]
     adm = ratio[np.broadcast_to(ok, ratio.shape) & np.isfinite(ratio)]
+    inc_a = np.asarray(fm.get("status_a", np.full(len(fm["alpha"]), "")), dtype=object)
+    inc_b = np.asarray(fm.get("status_b", np.full(ratio.shape, "")), dtype=object)
+    n_inconclusive = int(((inc_a[:, None] == "inconclusive") | (inc_b == "inconclusive")).sum())
+    per_rho = [int((only_b & (fm["phi"][None, :] >= p - 1e-12)).sum()) for p in fm["phi_rho"]]
     return {
         "map_alpha": (fm["alpha"], "1/s", "decay rates of the map"),
         "map_phi": (fm["phi"], "1/s", "bounds phi of the map"),
+        "map_rho": (np.array(P.rho_map), "", "uncertainty sizes (relative rear-force error)"),
+        "map_phi_rho": (fm["phi_rho"], "1/s", "Assumption 2 bound per uncertainty size"),
         "map_gamma_a": (fm["gamma_a"], "", "best certified gamma of (a) per alpha"),
         "map_gamma_b": (fm["gamma_b"], "", "rows alpha, columns phi"),
-        "map_containment": (bool(np.all(fm["feasible_b"] | ~fm["feasible_a"])), "",
-                            "feasible(a) subset of feasible(b)"),
+        "map_n_cells": (int(only_b.size), "", "cells of the map"),
+        "map_n_inconclusive": (n_inconclusive, "", "cells where a design's solution has "
+                                                   "round-off margins (counted infeasible)"),
         "map_n_feasible_a": (int(fm["feasible_a"].sum()), "", "cells where (a) is feasible"),
         "map_n_feasible_b": (int(fm["feasible_b"].sum()), "", "cells where (b) is feasible"),
+        "map_n_only_a": (int(only_a.sum()), "", "cells where only (a) is feasible"),
         "map_n_only_b": (int(only_b.sum()), "", "cells where only (b) is feasible"),
         "map_n_only_b_admissible": (int((only_b & ok).sum()), "",
                                     "cells with phi >= the derived bound where only (b) is "
                                     "feasible"),
+        "map_n_only_b_per_rho": (per_rho, "", "cells with phi >= the bound of each rho where "
+                                              "only (b) is feasible"),
         "map_max_ratio_admissible": (float(adm.max()) if adm.size else float("nan"), "",
                                      "largest gamma_b / gamma_a with phi >= the derived bound"),
         "map_min_ratio_admissible": (float(adm.min()) if adm.size else float("nan"), "",
@@ -411,77 +479,73 @@ def feasibility_metrics(fm: dict, phi: float) -> dict:
 
 
 # --------------------------------------------------------------------------- claims ------
-#: |gamma_b / gamma_a - 1| below which the two designs reach the same certified optimum (the
-#: solver's relative accuracy is about 1e-6; 1e-3 is far above it and far below a gain worth
-#: the name)
-GAMMA_SAME = 1e-3
-
-
-def _faster_rule(value: str, paper: str, what: str, because: str | None) -> Rule:
+def _faster_rule(value: str, paper: str, what: str) -> Rule:
     """Rule of a "(b) is faster than (a)" claim on the ratio ``value`` of a time (b) / (a):
-    not comparable (``because``) when the reconstruction fixes the comparison, else
-    reproduced at least 10 % shorter, partly any shorter."""
-    if because is not None:
-        return Rule.not_comparable(value, paper=paper, because=because)
+    reproduced at least 10 % shorter, partly any shorter, differs otherwise."""
     return Rule(value, reproduced="value <= 0.9", partly="value < 1", paper=paper,
+                informative="lmi_status_a == 'certified' and lmi_status_b == 'certified'",
                 source=f"chosen here: 'faster' has no number; at least 10 % shorter {what}, "
-                       "partly any (no reason for 10 % recorded)")
+                       "partly any (no reason for 10 % recorded); informative only if both "
+                       "designs' certificates are above round-off")
+
+
+def _proof_note(g: dict) -> str:
+    return (f"dim ker Cbar = {g['dim_ker_Cbar']}; min over frozen memberships of the distance "
+            f"of T Abar(h) n from span(n) = {fmt(g['kernel_min_rel_distance'])} (> 0), so by "
+            "the projection lemma and Gordan's alternative (uio.kernel_direction_test) the "
+            "non-relaxed conditions are feasible at every alpha and no (alpha, phi, rho) cell "
+            "can be relaxed-only")
 
 
 def claims(g: dict) -> list[dict]:
     """Claim keyword dicts for :meth:`Report.claim` from the report's stored metric values
     ``g`` (``rep.values()``); each verdict is computed by its :class:`Rule`."""
     return [
-        dict(paper=PAPER, kind="paper", item="Fig. 3", figure="fig3_steering", metric="max |delta| [rad]",
+        dict(paper=PAPER, kind="data", item="Fig. 3 (steering input)", figure="fig3_steering",
+             metric="max |delta| [rad]",
              rule=Rule.no_number("max_abs_delta", paper="steering of the driver (values lost)"),
-             note="signal chosen here: the paper's values were lost"),
-        dict(paper=PAPER, kind="paper", item="Fig. 4 (v_y, not measured)", figure="fig4_vy",
+             note="the input of the run, not a claim; signal chosen here (values lost)"),
+        dict(paper=PAPER, kind="paper", item="Fig. 4 (v_y estimate)", figure="fig4_vy",
              metric="rmse_vy (b) / RMS of the true v_y, with noise, estimated premises",
              rule=Rule("rmse_vy_b / rms_vy_true",
                        reproduced="value <= 0.1 and value < rmse_vy_openloop / rms_vy_true",
                        partly="value <= 0.5 and value < rmse_vy_openloop / rms_vy_true",
-                       informative="rank_CM == rank_M and not vy_measured",
+                       informative="rank_CM == rank_M and vy_observable",
                        paper="v_y estimate converges to the true v_y",
                        source="chosen here: Fig. 4 prints no number; RMSE within 10 % of the "
                               "RMS of v_y, 50 % partly (no reason recorded), and below the "
-                              "open-loop model's (same steering, no output injection: v_y is "
-                              "stable, so the model alone also converges); informative if the "
-                              "uncertainty is decoupled and v_y is not measured"),
-             note=(f"open-loop model: rmse_vy {fmt(g['rmse_vy_openloop'])} m/s "
-                   f"({fmt(g['rmse_vy_openloop'] / g['rms_vy_true'])} of the RMS of v_y); "
-                   f"v_y converges at the open-loop lateral mode (unobservable, detectable): "
-                   f"{fmt(g['vy_conv_time_b'])} s to 10 % of the initial error (noise-free); "
-                   f"premise error max {fmt(g['premise_err_max'])} changes rmse_vy from "
+                              "open-loop model's (same steering, no output injection); "
+                              "informative if the uncertainty is decoupled and v_y is "
+                              "observable through the decoupled outputs"),
+             note=(f"open-loop model: rmse_vy {fmt(g['rmse_vy_openloop'])} m/s; v_y is read by "
+                   f"the optical sensor (noise {fmt(P.sigma_vy_adh)} m/s) and mixed with r by "
+                   f"T; premise error max {fmt(g['premise_err_max'])} changes rmse_vy from "
                    f"{fmt(g['rmse_vy_b_truepremise'])} (true premises) to "
                    f"{fmt(g['rmse_vy_b'])} m/s")),
-        dict(paper=PAPER, kind="paper", item="Figs. 4-5 (faster convergence)", figure="fig5_yaw_rate",
-             metric="vy_conv_time (b) / (a), noise-free",
-             rule=_faster_rule(
-                 "vy_conv_time_b / vy_conv_time_a", "Theorem 2 converges faster than [22]",
-                 "convergence time", None if g["max_unobservable_mode"] is None else
-                 (f"v_y is unobservable through the decoupled outputs in this reconstruction "
-                  f"(sensors and uncertainty direction chosen here): its error decays at the "
-                  f"open-loop lateral mode {fmt(g['max_unobservable_mode'])} 1/s, an eigenvalue "
-                  "of every N_i that no gain moves, so both designs converge in the same time "
-                  "by construction")),
-             note=(f"noise-free: v_y convergence {fmt(g['vy_conv_time_b'])} s (b), "
-                   f"{fmt(g['vy_conv_time_a'])} s (a); r RMSE {fmt(g['rmse_r_b_noisefree'])} (b) "
-                   f"vs {fmt(g['rmse_r_a_noisefree'])} rad/s (a)")),
-        dict(paper=PAPER, kind="paper", item="Fig. 6 (fault estimation)", figure="fig6_fault",
-             metric="fault delay (b) / (a), noise-free",
-             rule=_faster_rule(
-                 "fault_delay_b / fault_delay_a",
-                 "fault estimate of Theorem 2 converges faster than [22]", "fault delay",
-                 None if abs(g["gamma_ratio_b_over_a"] - 1) > GAMMA_SAME else
-                 (f"in this reconstruction Theorem 2 reaches the same certified optimum as [22] "
-                  f"(gamma_b / gamma_a = {g['gamma_ratio_b_over_a']:.4f}) at a decay rate "
-                  "capped by the unobservable v_y mode for both, so the relaxation gains "
-                  "nothing to be faster with; which of the equally good gains the solver "
-                  "returns decides the delay, not Theorem 2")),
+        dict(paper=PAPER, kind="paper", item="Figs. 4-5 (faster state convergence)",
+             figure="fig4_vy", metric="vy_conv_time (b) / (a), noise-free",
+             rule=_faster_rule("vy_conv_time_b / vy_conv_time_a",
+                               "Theorem 2 converges faster than [22]", "convergence time"),
+             note=(f"alpha = {fmt(g['design_alpha'])} 1/s for both; noise-free v_y convergence "
+                   f"{fmt(g['vy_conv_time_b'])} s (b), {fmt(g['vy_conv_time_a'])} s (a); slowest "
+                   f"poles {fmt(g['slowest_pole_b'])} (b), {fmt(g['slowest_pole_a'])} 1/s (a); "
+                   f"r RMSE {fmt(g['rmse_r_b_noisefree'])} (b) vs "
+                   f"{fmt(g['rmse_r_a_noisefree'])} rad/s (a); ratio at alpha = "
+                   f"{fmt(g['sens_alpha'])} 1/s: {fmt(g['sens_conv_ratio'])}; the two designs "
+                   "have the same feasible set (Remark 1 row), so which is faster depends on "
+                   "the gains each optimum returns, not on the relaxation")),
+        dict(paper=PAPER, kind="paper", item="Fig. 6 (faster fault estimation)",
+             figure="fig6_fault", metric="fault delay (b) / (a), noise-free",
+             rule=_faster_rule("fault_delay_b / fault_delay_a",
+                               "fault estimate of Theorem 2 converges faster than [22]",
+                               "fault delay"),
              note=(f"noise-free delays {fmt(g['fault_delay_b'])} s (b), "
-                   f"{fmt(g['fault_delay_a'])} s (a); with noise fault RMSE "
-                   f"{fmt(g['rmse_f_b'])} (b) vs {fmt(g['rmse_f_a'])} rad (a)")),
-        dict(paper=PAPER, kind="paper", item="Fig. 7 / Assumption 2", figure="fig7_membership_derivatives",
+                   f"{fmt(g['fault_delay_a'])} s (a) (10 % band); with noise fault RMSE "
+                   f"{fmt(g['rmse_f_b'])} (b) vs {fmt(g['rmse_f_a'])} rad (a); "
+                   f"gamma_b / gamma_a = {fmt(g['gamma_ratio_b_over_a'], 4)}; ratio at alpha = "
+                   f"{fmt(g['sens_alpha'])} 1/s: {fmt(g['sens_delay_ratio'])}")),
+        dict(paper=PAPER, kind="paper", item="Fig. 7 / Assumption 2",
+             figure="fig7_membership_derivatives",
              metric="max |dh/dt| of the run (fault step left out) / phi (from input bounds)",
              rule=Rule("max_abs_hdot_smooth / phi_design", reproduced="value <= 1",
                        informative="value >= 0.1",
@@ -493,33 +557,44 @@ def claims(g: dict) -> list[dict]:
                   f"v_x and the tyre peak forces; across the fault step the finite difference "
                   f"reaches {fmt(g['max_abs_hdot'])} 1/s (a Dirac sampled at 1 kHz, outside "
                   "the fault-rate bound)"),
-        dict(paper=PAPER, kind="paper", item="Remark 1 / Sec. 6", figure="feasibility_map",
-             metric="cells with phi >= bound where only (b) is feasible",
-             rule=Rule("map_n_only_b_admissible", reproduced="value >= 1",
-                       partly="map_containment and map_max_ratio_admissible <= 1 + 1e-4",
-                       paper="relaxed conditions are less conservative than [22]",
-                       source="paper: Remark 1, (b) contains (a) and is feasible where (a) is "
-                              "not; chosen here: at least one such cell with phi at its bound, "
-                              "partly if (b) is never worse (gamma ratio <= 1 + 1e-4; no reason for "
-                              "1e-4 recorded)"),
-             note=(f"gamma_b / gamma_a at the design point {fmt(g['gamma_ratio_b_over_a'], 4)}; "
-                   f"on admissible cells {fmt(g['map_min_ratio_admissible'], 4)} to "
-                   f"{fmt(g['map_max_ratio_admissible'], 4)}; cells where only (b) is feasible: "
-                   f"{g['map_n_only_b']} in all, {g['map_n_only_b_admissible']} with "
-                   "phi >= bound")),
-        dict(paper=PAPER, kind="diagnostic", item="Remark 1, C = I comparison variant",
+        dict(paper=PAPER, kind="paper", item="Remark 1 / Sec. 6 (less conservative)",
              figure="feasibility_map",
-             metric="cells with phi >= 10 where only (b) reaches gamma <= 0.55",
-             rule=Rule("full_map_n_only_b_admissible", reproduced="value >= 1",
-                       partly="full_map_containment and full_map_max_ratio_admissible <= 1 + 1e-4",
+             metric="cells (alpha, phi >= bound) where only Theorem 2 is feasible, no pole disk",
+             rule=Rule("map_n_only_b_admissible", reproduced="value >= 1",
                        paper="relaxed conditions are less conservative than [22]",
-                       source="paper: Remark 1, (b) feasible where (a) is not; chosen here: at "
-                              "least one such cell at phi = 10 and gamma <= 0.55, partly if (b) "
-                              "is never worse (gamma ratio <= 1 + 1e-4; no reason for 1e-4 recorded)"),
-             note=(f"only-(b) cells {g['full_map_n_only_b']} in all (phi = 0 violates "
-                   f"Assumption 2), {g['full_map_n_only_b_admissible']} at phi = 10; "
-                   f"gamma_b / gamma_a {fmt(g['full_map_min_ratio_admissible'], 4)} to "
-                   f"{fmt(g['full_map_max_ratio_admissible'], 4)} there")),
+                       source="paper: Remark 1, Theorem 2 is feasible where [22] is not; chosen "
+                              "here: at least one such cell with phi at or above its derived "
+                              "bound; containment alone (every [22] solution is a Theorem 2 "
+                              "one) is not the claim and is not credited"),
+             note=(f"{g['map_n_only_b']} relaxed-only cells of {g['map_n_cells']} "
+                   f"(per rho {g['map_n_only_b_per_rho']}), {g['map_n_only_a']} where only [22] "
+                   f"is feasible; " + _proof_note(g) + f"; gamma_b / gamma_a on admissible "
+                   f"cells {fmt(g['map_min_ratio_admissible'], 4)} to "
+                   f"{fmt(g['map_max_ratio_admissible'], 4)}")),
+        dict(paper=PAPER, kind="diagnostic", item="Remark 1 in the L2 bound (gamma)",
+             figure="feasibility_map",
+             metric="smallest gamma_b / gamma_a on the map's cells with phi >= bound",
+             rule=Rule("map_min_ratio_admissible", reproduced="value <= 0.9",
+                       partly="value < 1 - 1e-3",
+                       paper="relaxed conditions are less conservative than [22]",
+                       source="chosen here: the paper compares feasibility, not a bound; a "
+                              "certified L2 gain at least 10 % lower reproduces, any lower "
+                              "beyond the solver's accuracy (1e-3, well above its 1e-6) partly"),
+             note=(f"largest ratio {fmt(g['map_max_ratio_admissible'], 4)} (above 1: the "
+                   "finite mu grid); the bound improves, the feasible set does not")),
+        dict(paper=PAPER, kind="diagnostic", item="previous reconstruction (yaw-rate sensors)",
+             figure="feasibility_map",
+             metric="v_y observable through the decoupled outputs (gyro + wheel yaw rate, "
+                    "1/I_z error)",
+             rule=Rule("yaw_vy_observable", reproduced="value",
+                       paper="v_y estimated by the UIO (Figs. 4-5)",
+                       source="chosen here: the decoupled observer must see v_y for the "
+                              "paper's comparison to be testable"),
+             note=(f"unobservable mode {fmt(g['yaw_max_unobservable_mode'])} 1/s (open-loop "
+                   f"v_y mode; slowest pole of (b) {fmt(g['yaw_slowest_pole_b'])} 1/s); kernel "
+                   f"distance {fmt(g['yaw_kernel_min_rel_distance'])}: a frozen membership "
+                   f"certifies that no design exceeds that decay rate; gamma_b / gamma_a "
+                   f"{fmt(g['yaw_gamma_ratio'], 4)}")),
         dict(paper=PAPER, kind="baseline", item="Sec. 1 / (23a) vs EKF baseline", figure="fault_uio_vs_ekf",
              metric="spurious fault before the fault, noise-free: [EKF q = s^2 dt, UIO (b)] "
                     "/ settled fault error of (b)",
@@ -573,11 +648,10 @@ def fig_steering(sc: dict):
     return fig
 
 
-#: end [s] of the start transient left out of the error axes' scaling: v_y (ln(100) / 0.99 1/s:
-#: the slowest v_y mode has decayed to 1 % of the initial error by then), and r, f (ln(100) /
-#: 22 1/s, their slowest poles)
-T_TRANSIENT = 5.0
-T_TRANSIENT_FAST = 0.2
+#: end [s] of the start transient left out of the error axes' scaling: ln(100) / 11 1/s (the
+#: slowest pole of both designs at the design decay rate has decayed to 1 % by then), rounded up
+T_TRANSIENT = 0.5
+T_TRANSIENT_FAST = T_TRANSIENT
 #: width [s] of the moving mean of the noisy fault errors in :func:`fig_fault_vs_ekf`
 T_SMOOTH = 0.2
 
@@ -607,9 +681,10 @@ def _moving_mean(x, n: int):
 def _estimate_panels(sim: dict, k: int, ylabel: str, title: str):
     """Four panels for state ``k`` of ``[v_y, r, f]``: truth and estimates of (a), (b) (noisy
     run; for v_y also the open-loop model), their errors (axis scaled after the start
-    transient, :data:`T_TRANSIENT` for v_y, :data:`T_TRANSIENT_FAST` for r and f), the
-    difference of the two designs' estimates (noisy and noise-free), and the noise-free errors
-    zoomed on the fault onset."""
+    transient :data:`T_TRANSIENT`), the difference of the two designs' estimates (noisy and
+    noise-free), and the noise-free errors zoomed on what the claims are graded on: the start
+    with both v_y convergence times (``k = 0``), the fault onset (``k = 1``), the fault onset
+    with both fault delays (``k = 2``)."""
     sc, ev, ev0 = sim["sc"], sim["ev"], sim["ev0"]
     t = sc["t"]
     ref = sc["X"][:, k] if k < 2 else sc["f"]
@@ -641,9 +716,33 @@ def _estimate_panels(sim: dict, k: int, ylabel: str, title: str):
                       "(axis scaled after the start transient)")
     _error_limits(ax[2], t, list(diff.values()), t_tr)
     _legend_right(ax[2])
+    if k == 0:         # the graded quantity: the noise-free v_y convergence time (10 % band)
+        e0v = {n: e0["err"][:, 0] for n, _, e0 in runs}
+        dconv = {n: convergence_time(t, e, P.t_fault) for n, e in e0v.items()}
+        t_hi = max(0.05, 2.0 * max(v for v in dconv.values() if np.isfinite(v)))
+        zoom = t <= t_hi
+    if k == 2:         # the graded quantity: the noise-free fault delay (10 % band)
+        d = {n: e0["fault_delay"] for n, _, e0 in runs}
+        t_hi = P.t_fault + max(0.4, 1.3 * max(v for v in d.values() if np.isfinite(v)))
+        zoom = (t >= P.t_fault - 0.05) & (t <= t_hi)
     time_series(ax[3], t[zoom], {n: e0["err"][zoom, k] for n, _, e0 in runs},
                 ylabel=f"error {unit}", styles=STYLES,
                 title="noise-free run, zoom on the fault onset")
+    if k == 0:
+        band = 0.1 * abs(float(runs[0][2]["err"][0, 0]))
+        ax[3].axhspan(-band, band, color="0.9", zorder=0, label=r"10 % of $|e(0)|$")
+        for n, v in dconv.items():
+            ax[3].axvline(v, color=STYLES[n]["color"], ls=STYLES[n].get("ls", "-"), lw=0.9)
+        ax[3].set_title("noise-free run, start: convergence time (error within 10 % of its start "
+                        "for good) " + ", ".join(f"{n} {v:.3f} s" for n, v in dconv.items()))
+    if k == 2:
+        band = 0.1 * float(np.abs(sim["sc0"]["f"]).max())
+        ax[3].axhspan(-band, band, color="0.9", zorder=0, label=r"10 % band")
+        for n, v in d.items():
+            ax[3].axvline(P.t_fault + v, color=STYLES[n]["color"], ls=STYLES[n].get("ls", "-"),
+                          lw=0.9)
+        ax[3].set_title("noise-free run: fault delay (error enters the 10 % band for good) "
+                        + ", ".join(f"{n} {v:.3f} s" for n, v in d.items()))
     _legend_right(ax[3])
     return fig
 
@@ -706,57 +805,64 @@ def fig_membership_derivatives(sc: dict, phi: float):
     return fig
 
 
-def fig_feasibility_map(fm: dict, phi_bound: float | None = None,
-                        alpha_limit: float | None = None):
-    """Left: best certified gamma [-] (log axis) against the decay rate alpha [1/s] for (a)
-    and each phi [1/s] of (b), with ``alpha_limit`` [1/s] (the slowest unobservable mode, no
-    design can be faster) marked. Right: the (alpha, phi) grid, each cell with gamma_b /
-    gamma_a and which designs are feasible (both / (b) only / none, grey); rows with
-    ``phi < phi_bound`` (Assumption 2 violated) hatched."""
+def fig_feasibility_map(fm: dict, phi_bound: float | None = None):
+    """The paper's two theorems (no pole disk) over the (alpha [1/s], phi [1/s]) grid, phi at
+    the Assumption 2 bound of each uncertainty size ``fm["phi_rho"]``. Left: which designs
+    are feasible per cell (categorical colours: both / Theorem 2 only / [22] only / none),
+    rows with ``phi < phi_bound`` (Assumption 2 violated for every rho of the map; pass the
+    smallest bound) hatched. Right:
+    gamma_b / gamma_a [-] where both are feasible, on a colour scale spanning the values."""
+    from matplotlib.colors import ListedColormap
+
     alphas, phis, ratio = fm["alpha"], fm["phi"], fm["ratio"]
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1, 1.15]})
-    for j, ph in enumerate(phis):
-        ax[0].plot(alphas, fm["gamma_b"][:, j], "-", marker="os^v"[j % 4], ms=4 + 2.5 * j,
-                   mfc="none", color=PALETTE[(0, 1, 4, 5)[j % 4]], label=rf"(b) $\varphi$ = {ph:.3g} 1/s")
-    ax[0].plot(alphas, fm["gamma_a"], "k--", marker="x", ms=7, label="(a) [22]")
-    if alpha_limit is not None:
-        ax[0].axvline(alpha_limit, color="0.4", ls=":")
-        ax[0].text(alpha_limit, 0.5, "slowest unobservable mode:\nno design beyond ",
-                   transform=ax[0].get_xaxis_transform(), va="center", ha="right", fontsize=7,
-                   color="0.3")
-    ax[0].set_yscale("log")
-    ax[0].yaxis.set_major_locator(mticker.LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax[0].yaxis.set_major_formatter(mticker.FormatStrFormatter("%g"))
-    ax[0].yaxis.set_minor_formatter(mticker.NullFormatter())
-    ax[0].set_xlim(alphas.min() - 0.05, alphas.max() + 0.05)
-    ax[0].set(xlabel=r"decay rate $\alpha$ [1/s]", ylabel=r"certified $L_2$ gain $\gamma$ [-]",
-              title=r"best certified $\gamma$ (no marker: infeasible)")
-    ax[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.18), ncol=2, frameon=False)
-    cmap = plt.get_cmap("cividis").with_extremes(bad="0.8")   # grey: no certified solution
-    im = ax[1].imshow(np.ma.masked_invalid(ratio.T), origin="lower", aspect="auto", cmap=cmap,
-                      vmin=min(0.9, np.nanmin(ratio)) if np.isfinite(ratio).any() else 0.9,
-                      vmax=1.0)
+    fa, fb = fm["feasible_a"], fm["feasible_b"]
+    cat = np.where(fa & fb, 0, np.where(fb, 1, np.where(fa, 2, 3)))
+    names = ("both", "Theorem 2 only", "[22] only", "none")
+    cols = (PALETTE[0], PALETTE[1], PALETTE[4], "0.85")
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.4))
+    ax[0].imshow(cat.T, origin="lower", aspect="auto", cmap=ListedColormap(cols), vmin=-0.5,
+                 vmax=3.5)
+    rho_of = {float(p): r for p, r in zip(fm["phi_rho"], P.rho_map)}
+    ylabels = []
+    for p in phis:
+        r = rho_of.get(float(p))
+        ylabels.append(f"{p:.3g}" + (f"\n(bound, rho = {r:g})" if r is not None else
+                                     "\n(violates A2)" if phi_bound is not None
+                                     and p < phi_bound * (1 - 1e-6) else ""))
+    for a_ in ax:
+        a_.set_xticks(range(len(alphas)), [f"{a:g}" for a in alphas])
+        a_.set_yticks(range(len(phis)), ylabels, fontsize=8)
+        a_.set(xlabel=r"decay rate $\alpha$ [1/s]", ylabel=r"bound $\varphi$ on $|\dot h_i|$ [1/s]")
+        a_.grid(False)
     for i in range(len(alphas)):
         for j in range(len(phis)):
-            fa, fb = fm["feasible_a"][i, j], fm["feasible_b"][i, j]
-            lab = "both" if fa and fb else "(b) only" if fb else "(a) only" if fa else "none"
-            val = f"{ratio[i, j]:.4f}\n" if np.isfinite(ratio[i, j]) else ""
-            ax[1].text(i, j, val + lab, ha="center", va="center", fontsize=9,
-                       color="k" if np.isfinite(ratio[i, j]) and ratio[i, j] > 0.95 else "w"
-                       if np.isfinite(ratio[i, j]) else "k")
+            ax[0].text(i, j, names[cat[i, j]], ha="center", va="center", fontsize=8,
+                       color="w" if cat[i, j] in (0, 1) else "k")
             if phi_bound is not None and phis[j] < phi_bound * (1 - 1e-6):
-                ax[1].add_patch(plt.Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="//",
-                                              ec="0.5", lw=0))
-    ax[1].set_xticks(range(len(alphas)), [f"{a:g}" for a in alphas])
-    ylabels = [f"{p:.3g}" + ("\n(violates A2)" if phi_bound is not None
-                             and p < phi_bound * (1 - 1e-6) else "\n(derived)"
-                             if phi_bound is not None and abs(p - phi_bound) <= 1e-6 * phi_bound
-                             else "") for p in phis]
-    ax[1].set_yticks(range(len(phis)), ylabels)
-    ax[1].set(xlabel=r"decay rate $\alpha$ [1/s]", ylabel=r"bound $\varphi$ on $|\dot h_i|$ [1/s]",
-              title=r"$\gamma_b/\gamma_a$ [-] and feasible designs per cell")
-    ax[1].grid(False)
-    fig.colorbar(im, ax=ax[1], label=r"$\gamma_b/\gamma_a$ [-] (grey: none feasible)")
+                ax[0].add_patch(plt.Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="//",
+                                              ec="0.4", lw=0))
+    n_only = int((fb & ~fa).sum())
+    ax[0].set_title(f"feasible designs per cell: Theorem 2 only in {n_only} of {cat.size}\n"
+                    r"(a row serves every $\rho$ whose bound it reaches; hatched: below every bound)",
+                    fontsize=10)
+    ax[0].legend(handles=[plt.Rectangle((0, 0), 1, 1, color=c) for c in cols], labels=names,
+                 loc="upper left", bbox_to_anchor=(0.0, -0.2), ncol=4, fontsize=8, frameon=False)
+    fin = np.isfinite(ratio)
+    lo, hi = (float(np.nanmin(ratio)), float(np.nanmax(ratio))) if fin.any() else (0.99, 1.0)
+    if hi - lo < 1e-4:
+        lo, hi = lo - 5e-5, hi + 5e-5
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
+    im = ax[1].imshow(np.ma.masked_invalid(ratio.T), origin="lower", aspect="auto", cmap=cmap,
+                      vmin=lo, vmax=hi)
+    for i in range(len(alphas)):
+        for j in range(len(phis)):
+            if fin[i, j]:
+                frac = (ratio[i, j] - lo) / (hi - lo)
+                ax[1].text(i, j, f"{ratio[i, j]:.4f}", ha="center", va="center", fontsize=8,
+                           color="k" if frac > 0.5 else "w")
+    ax[1].set_title(r"$\gamma_b/\gamma_a$ where both are feasible (grey: not both)")
+    fig.colorbar(im, ax=ax[1], label=r"$\gamma_b/\gamma_a$ [-]")
+    fig.tight_layout()
     return fig
 
 
@@ -765,16 +871,14 @@ def fig_fault_live(model: ul.UncertainLateralTS, gains: uio.UIOGains, offset: fl
                    noise: float, t_end: float = 11.0, seed: int = 0):
     """Live figure of the notebook: the fault estimate [rad] of design ``gains`` on a fresh
     run with a fault of size ``offset`` [rad] (plus the 0.005 rad sine) from ``P.t_fault`` and
-    sensor noise ``noise`` x the nominal standard deviations, beside the raw residual
-    ``y_gyro - y_wheel`` (= f + noise: the measurement the fault estimate filters). The gains
-    stay those designed for the nominal noise. ``t_end`` [s]: a short run (one redraw < 1 s)."""
+    sensor noise ``noise`` x the nominal standard deviations. The gains stay those designed for
+    the nominal noise. ``t_end`` [s]: a short run (one redraw < 1 s)."""
     m = dataclasses.replace(model, D_w=model.D_w * noise)
     sc = sn.make_scenario(m, t_end, P.dt, P.t_fault, P.x0_true, seed=seed,
                           fault_kw={"offset": offset, "amp": P.fault_amp})
     ev = sn.evaluate(gains, sc, m)
-    t, res = sc["t"], sc["y"][:, 0] - sc["y"][:, 1]
+    t = sc["t"]
     fig, ax = plt.subplots(figsize=(8.5, 3.4))
-    ax.plot(t, res, color="0.75", lw=0.5, label=r"residual $y_{gyro} - y_{wheel}$")
     ax.plot(t, sc["f"], color=TRUTH, label="true fault $f$")
     ax.plot(t, ev["Xhat"][:, 2], color=color("elyoussfi2020/theorem2"), lw=1.4,
             label=r"UIO (b) estimate $\hat f$")
@@ -791,8 +895,8 @@ def animate_convergence(sim: dict, model: ul.UncertainLateralTS, t_show: float =
                         frames: int = 25):
     """Animation (:func:`teaching.animation`) of the v_y estimate of (b) converging in the
     noise-free run over the first ``t_show`` s: top, the true v_y, the estimate and the
-    open-loop model; bottom, ``|e_vy|`` [m/s] on a log axis between the two open-loop decay
-    envelopes ``|e_vy(0)| exp([A_i]_11 t)`` (no gain moves them: v_y is unobservable)."""
+    open-loop model; bottom, ``|e_vy|`` [m/s] on a log axis beside the design's decay rate
+    ``|e_vy(0)| exp(-alpha t)`` (alpha of the gains)."""
     from vehicle_observers.results import teaching
 
     sc0, ev0 = sim["sc0"], sim["ev0"]["b"]
@@ -806,9 +910,9 @@ def animate_convergence(sim: dict, model: ul.UncertainLateralTS, t_show: float =
                           label=r"UIO (b) $\hat v_y$")
     ax[0].set(ylabel="$v_y$ [m/s]", title="UIO (b): the unmeasured $v_y$ converging")
     ax[0].legend(loc="lower right", fontsize=7)
-    for A, ls in zip(model.A, ("--", "-.")):
-        ax[1].plot(t, e[0] * np.exp(A[0, 0] * t), color="0.5", ls=ls, lw=0.8,
-                   label=rf"$|e(0)|\,e^{{{A[0, 0]:.2f}t}}$")
+    a_ = sim["gains_alpha"]
+    ax[1].plot(t, e[0] * np.exp(-a_ * t), color="0.5", ls="--", lw=0.8,
+               label=rf"$|e(0)|\,e^{{-{a_:g}t}}$ (design rate $\lambda$)")
     (l_err,) = ax[1].plot([], [], color=color("elyoussfi2020/theorem2"), lw=1.6,
                           label=r"$|v_y - \hat v_y|$")
     ax[1].set(yscale="log", ylim=(1e-5, 1.0), xlabel="t [s]", ylabel="|error| [m/s]")
