@@ -18,7 +18,7 @@ NB = "03_interval_observer"
 
 @pytest.fixture(scope="module")
 def m(run_notebook):
-    return run_notebook(f"{NB}_report")
+    return run_notebook("03_interval_observer_report")
 
 
 def _checker_status(executed) -> list[str]:
@@ -189,7 +189,7 @@ def test_lesson_builds_the_observer_and_its_stubs_are_unattempted(run_notebook):
 def test_solutions_are_correct(run_notebook):
     """Every checker of the solutions notebook says "correct" (three exercises). Catches a
     worked solution that no longer solves its exercise."""
-    sol = run_notebook(f"{NB}_solutions")
+    sol = run_notebook("03_interval_observer_solutions")
     assert _checker_status(sol["_executed"]) == ["correct"] * 3
 
 
