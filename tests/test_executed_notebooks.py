@@ -307,8 +307,14 @@ def test_checker_rejects_warnings_on_stderr():
 def test_quick_executed_notebook_shows_its_figures(name, run_notebook):
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
-    figures = saved_figures(m["_dir"] / "metrics.json")
-    problems = output_problems(nb, figures, m["_dir"])
+    if pipeline.notebook_kind(pipeline.notebook_path(name)) == "lesson" \
+            and not (m["_dir"] / "metrics.json").exists():   # a split section's lesson
+        folder = m["_dir"] / "lesson"
+        figures = sorted(p.stem for p in folder.glob("*.png"))
+    else:
+        folder = m["_dir"]
+        figures = saved_figures(m["_dir"] / "metrics.json")
+    problems = output_problems(nb, figures, folder)
     assert not problems, f"{name} (quick): " + "; ".join(problems)
 
 
@@ -319,11 +325,14 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
     (checked by ``Report.savefig`` on the figure itself, written by ``Report.write`` to
     ``reporting.figure_checks_path(<the run's figures folder>)``)."""
     m = run_notebook(name)
-    if not saved_figures(m["_dir"] / "metrics.json"):
+    folder = m["_dir"]
+    if not (folder / "metrics.json").exists() and (folder / "lesson").is_dir():
+        folder = folder / "lesson"                 # a split section's lesson (teaching.Lesson)
+    elif not saved_figures(folder / "metrics.json"):
         pytest.skip(f"{name} saves no figure")
-    checks = figure_checks_path(m["_dir"])
+    checks = figure_checks_path(folder)
     assert checks.exists(), f"{name}: no {checks} written by the run"
-    assert json.loads(checks.read_text())["figures_dir"] == str(Path(m["_dir"]).resolve())
+    assert json.loads(checks.read_text())["figures_dir"] == str(Path(folder).resolve())
     problems = [f"{fig}: {p}" for fig, ps in json.loads(checks.read_text())["problems"].items()
                 for p in ps]
     assert not problems, f"{name}: " + "; ".join(problems)
@@ -333,8 +342,22 @@ def test_quick_run_figures_label_every_axis_with_a_unit(name, run_notebook):
 @pytest.mark.parametrize("name", [_param(n, "quick") for n in NOTEBOOKS])
 def test_quick_executed_notebook_has_real_exercises(name, run_notebook):
     """Every exercise: a stub the checker finds empty, then a hidden solution it finds correct."""
+    kind = pipeline.notebook_kind(pipeline.notebook_path(name))
+    if kind == "report":
+        pytest.skip(f"{name}: a report holds no exercises (they are in its lesson)")
     m = run_notebook(name)
     nb = nbformat.read(str(m["_executed"]), as_version=4)
+    if kind == "lesson" and pipeline.notebook_path(f"{name}_solutions").exists():
+        # split section: stubs here say "not attempted", the solutions notebook "correct"
+        sol = nbformat.read(str(run_notebook(f"{name}_solutions")["_executed"]), as_version=4)
+        status = lambda book: [o["data"]["text/html"] for c in book.cells
+                               for o in c.get("outputs", []) if "vo-check" in
+                               "".join(o.get("data", {}).get("text/html", ""))]
+        stubs, sols = status(nb), status(sol)
+        assert len(stubs) == len(sols) >= 3, name
+        assert all('data-status="not attempted"' in "".join(h) for h in stubs), name
+        assert all('data-status="correct"' in "".join(h) for h in sols), name
+        return
     problems = exercise_problems(nb)
     assert not problems, f"{name}: " + "; ".join(problems)
 
@@ -351,10 +374,17 @@ def test_full_executed_notebook_shows_its_figures(name):
     if params.get("quick") or code_sources(nb) != code_sources(current):
         pytest.skip(f"{name}: build/notebooks/ copy is from another notebook version or quick "
                     "mode (run `make figures`)")
-    fig_dir = Path(params.get("figures_dir") or ROOT / "figures") / name
+    section = pipeline.section_of(name)
+    fig_dir = Path(params.get("figures_dir") or ROOT / "figures") / section
     if not (fig_dir / "metrics.json").exists():
-        fig_dir = ROOT / "figures" / name
-    problems = output_problems(nb, saved_figures(fig_dir / "metrics.json"), fig_dir)
+        fig_dir = ROOT / "figures" / section
+    if pipeline.notebook_kind(pipeline.notebook_path(name, ROOT)) == "lesson" \
+            and (ROOT / "notebooks" / "reports" / f"{section}_report.ipynb").exists():
+        fig_dir = fig_dir / "lesson"               # a split section: the lesson's own figures
+        figures = sorted(p.stem for p in fig_dir.glob("*.png"))
+    else:
+        figures = saved_figures(fig_dir / "metrics.json")
+    problems = output_problems(nb, figures, fig_dir)
     assert not problems, f"{name} (full): " + "; ".join(problems)
 
 
