@@ -41,6 +41,9 @@ def test_interval_guarantee_holds_where_assumed(m):
     assert c["kind"] == "paper" and c["verdict"] == "reproduced"
     assert c["rule_def"]["value"] == "guaranteed_enclosure_min_ifqir2017"
     assert c["proves_little"] == (m["guaranteed_runs_ifqir2017"] < 10)
+    # counted once: notebook 03 holds the claim, this row checks it on other cars
+    assert c["duplicate_of"] == ("03_interval_observer: Theorem 1 guarantee; Figs. 'interval "
+                                 "observer of lateral velocity / yaw rate'")
     v = _claims(m)["variant: interval-coordinates encloses 100 % wherever the assumptions hold"]
     assert v["kind"] == "target" and v["verdict"] == "reproduced"
 

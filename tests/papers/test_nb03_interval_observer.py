@@ -15,6 +15,7 @@ from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 from vehicle_observers_papers.ifqir_2017 import constants as IF
 from vehicle_observers_papers.ifqir_2017 import interval_observer as ist
+from vehicle_observers_papers.ifqir_2017 import printed_observer as pob
 
 T_SHORT = 10.0   # s of the emulated run used here (the notebook: 40 s quick, full lap)
 
@@ -229,7 +230,7 @@ def test_printed_solution_is_feasible_for_the_design_with_its_epsilon(printed):
     """With epsilon >= the printed gains' own shift, the rescaled printed P, W are a feasible
     point of our Theorem 2 problem, so the optimal sum of gamma_i cannot exceed theirs."""
     eps = float(np.ceil(printed["min_epsilon"]))
-    des = IF.design(epsilon_shift=eps)
+    des = IF.design(pob.BANDS_PRINTED, epsilon_shift=eps)      # the certificate's bands
     assert des.gammas.sum() <= printed["cert"].gammas.sum() * (1 + 1e-3)
 
 
@@ -334,7 +335,7 @@ def test_summary(lpv, nl, revs):
 @pytest.mark.parametrize("name, n_axes", [
     ("gains", 3), ("inputs_emulated", 3), ("intervals_lpv", 4), ("intervals_nonlinear", 4),
     ("widths", 2), ("inputs_revs", 3), ("intervals_revs", 2), ("intervals_revs_zoom", 2),
-    ("convergence", 2), ("box_band", 2)])
+    ("convergence", 2), ("box_band", 2), ("assignments", 1)])
 def test_figures(name, n_axes, ds, lpv, nl, revs, conv):
     make = {"gains": lambda: ist.fig_gains(ist.gain_comparison(ds["des"])),
             "convergence": lambda: ist.fig_convergence(conv),
@@ -345,6 +346,7 @@ def test_figures(name, n_axes, ds, lpv, nl, revs, conv):
             "inputs_revs": lambda: ist.fig_inputs_revs(revs),
             "intervals_revs": lambda: ist.fig_intervals_revs(revs),
             "intervals_revs_zoom": lambda: ist.fig_intervals_revs(revs, zoom=True),
+            "assignments": lambda: ist.fig_assignments(pob.vertex_assignments()),
             "box_band": lambda: ist.fig_box_band(emulated_satory(seed=0, quick=True), IF.bands,
                                                  0.1, span=(12.0, 16.0))}[name]
     fig = make()
@@ -411,3 +413,29 @@ def test_animate_convergence_player(lpv, ds):
     assert isinstance(h, HTML)
     assert h.data.count("data:image/png;base64") == 3
     assert "font-awesome" not in h.data
+
+
+def test_figures_can_show_their_claim(ds, lpv):
+    """gains_vs_printed plots signed gains (the printed L1 < 0 below the zero line, so a sign
+    disagreement is visible) and the margin panels of intervals_emulated_lpv are on a symlog
+    axis with the zero line and the signed margins (a violation would plot below 0). Catches
+    |L| on a log axis and margins clipped to a positive floor on a log axis."""
+    fig = ist.fig_gains(ist.gain_comparison(ds["des"]))
+    try:
+        ax = fig.axes[0]
+        printed = next(ln for ln in ax.get_lines() if ln.get_label() == "printed")
+        np.testing.assert_allclose(printed.get_ydata(), IF.L_printed[..., 0].ravel())
+        assert ax.get_yscale() == "symlog"
+    finally:
+        plt.close(fig)
+    res = lpv["res"]
+    shifted = SimpleNamespace(x_lo=res.x_lo + 1e-3, x_hi=res.x_hi + 1e-3)   # truth below x^-
+    fig = ist.fig_intervals_lpv({**lpv, "res": shifted})
+    try:
+        b = fig.axes[1]                         # v_y margins
+        assert b.get_yscale() == "symlog"
+        assert any(np.all(np.asarray(ln.get_ydata(), float) == 0) for ln in b.get_lines())
+        lower = next(ln for ln in b.get_lines() if "lower" in ln.get_label())
+        assert np.min(lower.get_ydata()) < 0     # the planted violation is drawn below 0
+    finally:
+        plt.close(fig)

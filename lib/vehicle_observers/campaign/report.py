@@ -244,8 +244,11 @@ def fig_error_effect(errors: list[dict]):
 
 def fig_conservatism(cons: list[dict]):
     """Conservatism map: enclosure rate (top) and mean width (bottom) of ``v_y`` per interval
-    observer over the stiffness error (columns) and the box's speed range (rows)."""
+    observer over the stiffness error (columns) and the box's speed range (rows). Cells with
+    runs inside Ifqir 2017's assumptions (``guaranteed > 0``: matched LPV truth inside the
+    box, bounded noise, no bias, exact speed in the bands) are framed in black."""
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
 
     ests = list(dict.fromkeys((r["estimator"], f"{r['plant']}:{r['car']}") for r in cons
                               if np.isfinite(r["enclosure_mean"])))     # a panel per pair that ran
@@ -258,10 +261,16 @@ def fig_conservatism(cons: list[dict]):
         for row, (key, title, cmap) in enumerate((("enclosure_mean", "enclosure", "RdYlGn"),
                                                   ("width_mean", "mean width [m/s]", "viridis"))):
             Z = np.full((len(ys), len(xs)), np.nan)
+            inside = np.zeros(Z.shape, bool)
             for r in rs:
-                Z[ys.index((r["box_vx_min"], r["box_vx_max"], r["box_rel"])),
-                  xs.index(r["err_cf"])] = r[key]
+                ij = (ys.index((r["box_vx_min"], r["box_vx_max"], r["box_rel"])),
+                      xs.index(r["err_cf"]))
+                Z[ij] = r[key]
+                inside[ij] |= r.get("guaranteed", 0) > 0
             ax = axes[row, c]
+            for i, j in np.argwhere(inside):
+                ax.add_patch(Rectangle((j - 0.48, i - 0.48), 0.96, 0.96, fill=False, ec="k",
+                                       lw=1.6, zorder=5))
             im = ax.imshow(Z, aspect="auto", cmap=cmap, origin="lower",
                            vmin=(0.0 if key == "enclosure_mean" else None),
                            vmax=(1.0 if key == "enclosure_mean" else None))
@@ -272,7 +281,9 @@ def fig_conservatism(cons: list[dict]):
                 if np.isfinite(z):
                     ax.text(j, i, f"{z:.2f}", ha="center", va="center", fontsize=7,
                             bbox={"fc": "white", "alpha": 0.6, "lw": 0, "pad": 1})
-            ax.set_title(f"{e} on {pl_}: {title}", fontsize=8)
+            ax.set_title(f"{e} on {pl_}: {title}" + ("\n(framed: runs inside the paper's "
+                                                     "assumptions)" if inside.any() else ""),
+                         fontsize=8)
             ax.set_xlabel("stiffness error of the vehicle file [%]")
             fig.colorbar(im, ax=ax, shrink=0.8).set_label(
                 "enclosure rate [-]" if key == "enclosure_mean" else "mean $v_y$ width [m/s]")

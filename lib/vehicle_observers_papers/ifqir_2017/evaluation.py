@@ -192,10 +192,11 @@ def plot_intervals(t, results: dict, truth_vy, truth_r, title: str = "", tlim=No
 def plot_margins(t, res: iv.IntervalRun, truth, title: str = "", truth_label: str = "truth",
                  floor: float = 1e-9):
     """Interval against the truth ``(N, 2)``, one pair of panels per state: the band with the
-    truth, and below it the two margins ``x^+ - x`` and ``x - x^-`` [state unit] on a log
-    axis (both > 0 where the truth is enclosed; values below ``floor`` drawn at ``floor``).
-    A narrow interval (the yaw rate's) is invisible at the scale of the state; its margins
-    are not. 4 axes."""
+    truth, and below it the two margins ``x^+ - x`` and ``x - x^-`` [state unit] on a symlog
+    axis with the zero line (both >= 0 where the truth is enclosed; a violation shows as a
+    negative margin below the line; linear within the 1st percentile of ``|margin|``, at least
+    ``floor``). A narrow interval (the yaw rate's) is invisible at the scale of the state; its
+    margins are not. 4 axes."""
     import matplotlib.pyplot as plt
     from vehicle_observers.core.arrays import decimate
 
@@ -209,12 +210,13 @@ def plot_margins(t, res: iv.IntervalRun, truth, title: str = "", truth_label: st
         a.plot(tt, x, color="k", lw=0.9, label=truth_label, zorder=4)
         a.set_ylabel(f"${nm}$ [{unit}]")
         a.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
-        tt, up, dn = decimate(t, res.x_hi[:, c] - truth[:, c], truth[:, c] - res.x_lo[:, c],
-                              max_points=3000)
-        b.semilogy(tt, np.maximum(up, floor), color=PALETTE[0], lw=0.8,
-                   label=f"upper margin ${nm}^+ - {nm}$")
-        b.semilogy(tt, np.maximum(dn, floor), color=PALETTE[1], lw=0.8, ls="--",
-                   label=f"lower margin ${nm} - {nm}^-$")
+        up, dn = res.x_hi[:, c] - truth[:, c], truth[:, c] - res.x_lo[:, c]
+        lin = max(floor, float(np.percentile(np.abs(np.concatenate([up, dn])), 1)))
+        tt, up, dn = decimate(t, up, dn, max_points=3000)
+        b.plot(tt, up, color=PALETTE[0], lw=0.8, label=f"upper margin ${nm}^+ - {nm}$")
+        b.plot(tt, dn, color=PALETTE[1], lw=0.8, ls="--", label=f"lower margin ${nm} - {nm}^-$")
+        b.axhline(0.0, color="k", lw=0.8, label="0 (below: truth outside)")
+        b.set_yscale("symlog", linthresh=lin)
         b.set_ylabel(f"margin [{unit}]")
         b.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     ax[-1].set_xlabel("$t$ [s]")
@@ -249,8 +251,10 @@ def plot_widths(t, results: dict, title: str = "", t_settle: dict | None = None)
 
 
 def plot_gains(design: iv.IntervalDesign, L_printed=None, P_printed=None, others: dict | None = None):
-    """Designed |L| (and P_22/P_11) next to the slides' printed values, per mode.vertex;
-    ``others`` ``{label: IntervalDesign}`` adds more designs (e.g. the other vertex polarity)."""
+    """Designed ``L`` with its sign (and ``P_22/P_11``) next to the slides' printed values, per
+    mode.vertex, on a symlog axis with the zero line, so a sign disagreement shows as a point
+    on the other side of the line; ``others`` ``{label: IntervalDesign}`` adds more designs
+    (e.g. the other vertex polarity). 3 axes."""
     import matplotlib.pyplot as plt
 
     K = design.L.shape[0]
@@ -259,14 +263,15 @@ def plot_gains(design: iv.IntervalDesign, L_printed=None, P_printed=None, others
     labels = [f"{i + 1}.{j + 1}" for i in range(K) for j in range(4)]
     designs = {"designed": design, **(others or {})}
     marks = "osd^"
-    for c, nm in enumerate(("$|L_1|$ ($v_y$ row) [m/s]", "$|L_2|$ ($r$ row) [1/s]")):
+    for c, nm in enumerate(("$L_1$ ($v_y$ row) [m/s]", "$L_2$ ($r$ row) [1/s]")):
         for k, (lab, d) in enumerate(designs.items()):
-            ax[c].plot(idx, np.abs(d.L[..., c, 0]).ravel(), marks[k % 4], mfc="none",
+            ax[c].plot(idx, d.L[..., c, 0].ravel(), marks[k % 4], mfc="none",
                        color=PALETTE[(0, 2, 4, 3)[k % 4]], label=lab)
         if L_printed is not None:
-            lp = np.abs(np.asarray(L_printed)[..., c]).ravel()
+            lp = np.asarray(L_printed)[..., c].ravel()
             ax[c].plot(np.arange(len(lp)), lp, "x", color=PALETTE[1], label="printed")
-        ax[c].set_yscale("log")
+        ax[c].axhline(0.0, color="k", lw=0.6)
+        ax[c].set_yscale("symlog", linthresh=1.0)
         ax[c].set_title(nm)
     if P_printed is not None:
         pp_ = np.asarray(P_printed)

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 from vehicle_observers.data.logs import DriveLog, despike, load_revs
-from vehicle_observers.data.scenarios import NOISE_STD
+from vehicle_observers.data.scenarios import NOISE_STD, emulated_satory
 from vehicle_observers.models import uncertain_bicycle as ub
 from vehicle_observers.observers import interval as iv
 
 from vehicle_observers_papers.ifqir_2017 import constants as IF
 from vehicle_observers_papers.ifqir_2017 import evaluation as ev
+from vehicle_observers_papers.ifqir_2017 import printed_observer as po
 from vehicle_observers_papers.ifqir_2017 import printed_solution as ps
 
 #: initial box ``(x0_lo, x0_hi)`` of ``[v_y, r]`` [m/s, rad/s] on the emulated run
@@ -45,6 +46,9 @@ REVS_T_SKIP = 2.0
 SETTLE_FRAC = 0.02
 #: record length [s] after each start of the convergence test
 CONV_HORIZON = 5.0
+#: top speed [m/s] of the emulated run for the printed observer: 0.2 m/s below the printed
+#: top band edge 16.6 m/s (22), so the measured speed (noise std 0.05 m/s) stays in the bands
+V_MAX_PRINTED = 16.4
 
 
 def metrics_line(label: str, m: dict) -> str:
@@ -247,7 +251,7 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
     smallest (20) shift of the printed gains, max over modes [1/s]), ``text``, ``metrics``."""
     out, lines, metrics = {}, [], {}
     for key, pol in (("cert", inv_vx_upper_first), ("cert_other", not inv_vx_upper_first)):
-        c = ps.certify_solution(IF.model(inv_vx_upper_first=pol), IF.P_printed, IF.L_printed,
+        c = ps.certify_solution(po.printed_model(pol), IF.P_printed, IF.L_printed,
                                 IF.eps_decay, IF.accel_max, IF.p_min)
         out[key] = c
         sfx = "" if key == "cert" else "_other_polarity"
@@ -265,6 +269,34 @@ def printed_solution_study(inv_vx_upper_first: bool = IF.inv_vx_upper_first) -> 
                      f"{c.metzler_margins.min():.3g} 1/s, smallest epsilon of (20) per mode "
                      f"{np.round(c.min_epsilon, 1)} 1/s")
     metrics["epsilon_shift"] = (IF.epsilon_shift, "1/s", "(20) shift of the designs")
+    pm = po.printed_model(inv_vx_upper_first)
+    M = pm.A_lo - IF.L_printed[..., None] @ pm.C
+    metrics["printed_metzler12_min"] = (float(M[..., 0, 1].min()), "1/s",
+                                        "smallest entry (1,2) of A^- - L C, printed L and bands "
+                                        "(the Metzler entry that depends on L)")
+    metrics["a21_at_16_6"] = (po.a21_entry(IF.vehicle, IF.bands_printed[-1]), "1/s",
+                              "entry (2,1) of A^- (= of A^- - L C for every L) at 16.6 m/s")
+    metrics["a21_at_17_5"] = (po.a21_entry(IF.vehicle, IF.bands.edges[-1]), "1/s",
+                              "same at 17.5 m/s (the re-design's top band)")
+    std, lit = po.iss19_margins(pm), po.iss19_margins(pm, literal=True)
+    metrics["iss19_margin_standard"] = (std, "", "per mode: largest eigenvalue margin of (18)-"
+                                        "(19) read phi (P + M), printed P (min diag 1), W = P L")
+    metrics["iss19_margin_literal"] = (lit, "", "per mode: same, (19) read phi P + M")
+    asg = po.vertex_assignments(pm)
+    metrics["metzler_assignments"] = ([sum(r["metzler"] for r in asg if r["mode"] == i + 1)
+                                       for i in range(3)], "",
+                                      "of the 24 assignments of the printed gains to the "
+                                      "vertices, per mode")
+    metrics["identity_assignment_metzler"] = (
+        int(all(r["metzler"] for r in asg if r["perm"] == (1, 2, 3, 4))), "",
+        "1 if printed gain j at vertex j is Metzler in every mode")
+    lines.append(f"(18)-(19) margin per mode with the printed P, W: read phi (P + M) "
+                 f"{np.round(std, 3)}, read phi P + M {np.round(lit, 3)}")
+    lines.append(f"Metzler assignments of the printed gains (of 24) per mode: "
+                 f"{metrics['metzler_assignments'][0]}; entry (2,1) of A^- "
+                 f"{metrics['a21_at_16_6'][0]:.4f} 1/s at 16.6 m/s, "
+                 f"{metrics['a21_at_17_5'][0]:.4f} at 17.5 m/s (independent of L)")
+    out["assignments"] = asg
     out.update(min_epsilon=float(out["cert"].min_epsilon.max()), text="\n".join(lines),
                metrics=metrics)
     return out
@@ -558,6 +590,105 @@ def summary(lpv: dict, nl: dict, revs: dict) -> str:
     return "\n".join(out)
 
 
+# ------------------------------------------------------------------ printed observer -------
+def n_outside(res: iv.IntervalRun, truth) -> int:
+    """Number of samples where ``truth`` (N, 2) leaves ``[x^-, x^+]`` in either state (an
+    enclosure rate rounded to 4 digits can read 1 with a few samples outside)."""
+    truth = np.asarray(truth, dtype=float)
+    return int(np.sum(np.any((truth < res.x_lo) | (truth > res.x_hi), axis=1)))
+
+
+def printed_run_study(seed: int = 0, quick: bool = False, n_sigma: float = N_SIGMA,
+                      box0=BOX0) -> dict:
+    """The paper's trajectory claims on the observer AS PRINTED
+    (:func:`.printed_observer.printed_design`: printed ``L`` on the printed bands up to
+    16.6 m/s, identity vertex assignment, Euler at the step the printed ``epsilon`` needs):
+    on the emulated Satory run with its top speed at :data:`V_MAX_PRINTED` (``seed``,
+    ``quick`` as :func:`~vehicle_observers.data.scenarios.emulated_satory`; returned as
+    ``log``): the LPV-truth run (:func:`.printed_observer.run_lpv`), the convergence study
+    (:func:`convergence_study`) and the nonlinear run on the measured signals
+    (:func:`nonlinear_experiment`, speeds above 16.6 m/s clipped and counted). The
+    single-mode comparison observer is this repository's Theorem 2 design over the same
+    range (0.1-16.6 m/s; the slides print no single-mode gains). Returns ``des``, ``des1``,
+    ``lpv``, ``cv``, ``nl``, ``m``/``m1`` (LPV metrics), ``text`` and ``metrics``
+    (all named ``printed_*``)."""
+    log = emulated_satory(seed=seed, quick=quick, v_max=V_MAX_PRINTED)
+    des = po.printed_design()
+    des1 = IF.design(ub.SpeedBands((po.BANDS_PRINTED.edges[0], po.BANDS_PRINTED.edges[-1])))
+    lpv = po.run_lpv(des, log, seed=seed, box0=box0, corr_time=CORR_TIME)
+    res1 = iv.run_interval_observer(des1, lpv["dt"], lpv["vx"], lpv["delta"], lpv["delta"],
+                                    lpv["X"][:, 1], *box0, t=lpv["t"])
+    m = ev.interval_metrics(lpv["res"], lpv["X"], lpv["t"], width_t_skip=WIDTH_T_SKIP)
+    m1 = ev.interval_metrics(res1, lpv["X"], lpv["t"], width_t_skip=WIDTH_T_SKIP)
+    lpv.update(res1=res1, m=m, m1=m1, bands=des.model.bands)
+    cv = convergence_study(lpv, des, des1, box0)
+    nl = nonlinear_experiment(log, des, des1, n_sigma=n_sigma, box0=box0)
+    metrics = {"printed_substeps": (lpv["k"], "", "Euler steps per 1 ms sample "
+                                    "(h max|diag(A^- - L C)| <= 1)"),
+               "printed_epsilon": (des.epsilon_shift, "1/s", "smallest (20) shift of the "
+                                   "printed gains (mode 1)"),
+               "printed_lpv_enclosure_vy": (m["enclosure_vy"], "", "LPV truth"),
+               "printed_lpv_enclosure_r": (m["enclosure_r"], "", "LPV truth"),
+               "printed_lpv_width_mean_vy": (m["width_mean_vy"], "m/s", ""),
+               "printed_lpv_width_mean_r": (m["width_mean_r"], "rad/s", ""),
+               "printed_lpv_width_ratio_vy": (_ratio(m, m1, "width_mean_vy"), "",
+                                              "printed switched / designed single"),
+               "printed_conv_time": (cv["times"]["switched"], "s", "per mode [v_y, r]"),
+               "printed_conv_time_max": (float(np.nanmax(cv["times"]["switched"])), "s", ""),
+               "printed_conv_time_open_loop_max": (float(np.nanmax(cv["times"]["open loop"])),
+                                                   "s", "open-loop model (L = 0)"),
+               "printed_nl_enclosure_vy": (nl["m"]["enclosure_vy"], "", "nonlinear truth, "
+                                           "measured signals"),
+               "printed_nl_enclosure_r": (nl["m"]["enclosure_r"], "", ""),
+               "printed_nl_max_excursion_r": (nl["m"]["max_excursion_r"], "rad/s", ""),
+               "printed_nl_width_ratio_vy": (_ratio(nl["m"], nl["m1"], "width_mean_vy"), "",
+                                             "printed switched / designed single"),
+               "printed_lpv_n_outside": (n_outside(lpv["res"], lpv["X"]), "",
+                                         "samples with v_y or r outside the interval"),
+               "printed_nl_n_outside": (n_outside(nl["res"], nl["truth"]), "",
+                                        "samples with v_y or r outside the interval"),
+               "printed_nl_n_clipped": (nl["res"].n_clipped, "",
+                                        "measured speed samples above 16.6 m/s (clipped)")}
+    text = "\n".join([
+        f"printed observer: epsilon {des.epsilon_shift:.0f} 1/s -> {lpv['k']} Euler steps per "
+        f"1 ms sample; min Metzler entry {des.min_metzler_margin:.4f} 1/s",
+        metrics_line("LPV print", m), metrics_line("LPV single", m1),
+        f"convergence times [s] per mode [v_y, r]: {np.round(cv['times']['switched'], 3).tolist()}"
+        f" (open loop max {metrics['printed_conv_time_open_loop_max'][0]:.3f} s)",
+        metrics_line("NL print", nl["m"]), metrics_line("NL single", nl["m1"]),
+        f"speed samples clipped to 16.6 m/s: {nl['res'].n_clipped}"])
+    return {"log": log, "des": des, "des1": des1, "lpv": lpv, "cv": cv, "nl": nl, "m": m,
+            "m1": m1, "text": text, "metrics": metrics}
+
+
+def fig_assignments(rows: list[dict], modes=(2, 3)):
+    """Smallest off-diagonal entry of ``A^- - L C`` [1/s] for the 24 assignments of the
+    printed gains to the vertices (:func:`.printed_observer.vertex_assignments` rows) of
+    ``modes``, on a symlog axis with the zero line; the Metzler ones (>= 0) filled, the
+    identity (the one simulated) labelled. 1 axes."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10.0, 3.8))
+    for k, mode in enumerate(modes):
+        rr = [r for r in rows if r["mode"] == mode]
+        x = np.arange(len(rr)) + 0.2 * (k - 0.5)
+        v = np.array([r["min_offdiag"] for r in rr])
+        ok = np.array([r["metzler"] for r in rr])
+        col = ev.PALETTE[k]
+        ax.plot(x[ok], v[ok], "o", color=col, label=f"mode {mode}: Metzler ({ok.sum()} of 24)")
+        ax.plot(x[~ok], v[~ok], "o", mfc="none", color=col, label=f"mode {mode}: not Metzler")
+        ax.set_xticks(np.arange(len(rr)))
+        ax.set_xticklabels(["".join(map(str, r["perm"])) for r in rr], rotation=90, fontsize=7)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_yscale("symlog", linthresh=1.0)
+    ax.set_xlabel("printed gain at model vertices 1-4 (1234 = as printed, simulated) [-]")
+    ax.set_ylabel("min off-diagonal of $A^- - LC$ [1/s]")
+    ax.set_title("Vertex assignments of the printed gains, modes 2-3")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    fig.tight_layout()
+    return fig
+
+
 # ------------------------------------------------------------------ figures ----------------
 def fig_gains(gc: dict, po: dict | None = None):
     """Theorem 2 solution: designed ``|L|`` and ``P_22/P_11`` per mode.vertex next to the
@@ -606,12 +737,13 @@ def fig_inputs_emulated(lpv: dict):
                           "Emulated Satory run: inputs and switching signal (22)")
 
 
-def fig_intervals_lpv(lpv: dict):
+def fig_intervals_lpv(lpv: dict, title: str = "printed observer"):
     """The slides' two interval figures (v_y, r) on the LPV truth (Theorem 1 situation),
-    each with its margins ``x^+ - x``, ``x - x^-`` on a log axis below it; 4 axes."""
+    each with its margins ``x^+ - x``, ``x - x^-`` on a symlog axis with the zero line below
+    it (a violation is a negative margin); 4 axes."""
     return ev.plot_margins(lpv["t"], lpv["res"], lpv["X"],
-                           "Interval observer on the LPV truth (stiffness varying inside the "
-                           r"$\pm$10 % box)", truth_label="LPV truth")
+                           f"Interval observer ({title}) on the LPV truth (stiffness varying "
+                           r"inside the $\pm$10 % box)", truth_label="LPV truth")
 
 
 def fig_intervals_nonlinear(nl: dict):
