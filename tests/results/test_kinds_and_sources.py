@@ -136,7 +136,8 @@ def test_reproduction_counts_paper_claims_apart_from_the_other_kinds(tmp_path):
         "1 differs, 0 not comparable. Counted apart, not paper claims: 1 benchmark target "
         "(1 reproduced); 2 diagnostics (2 differs); 1 data check (1 reproduced).")
     heads = [ln for ln in text.splitlines() if ln.startswith("## ")]
-    assert heads == ["## Distinct paper claims per paper", "## Paper claims", "## Benchmark targets", "## Diagnostics", "## Data checks",
+    assert heads == ["## Distinct paper claims per paper", "## Paper claims", "## Benchmark targets",
+                     "## Diagnostics", "## Data checks",
                      "## 01_a", "## 02_b"]
     paper = text.split("\n## Paper claims\n")[1].split("\n## Benchmark targets\n")[0]
     assert "smoother" not in paper and "data check" not in paper and "| fit |" in paper

@@ -396,7 +396,8 @@ def main(argv=None) -> int:
     root = repo_root()
     figures = (root / args.figures) if not Path(args.figures).is_absolute() else Path(args.figures)
     build = (root / args.build) if not Path(args.build).is_absolute() else Path(args.build)
-    nbs = notebooks(root)
+    # lessons first, then reports: a section's lesson and report never run at the same time
+    nbs = sorted(notebooks(root), key=lambda nb: (notebook_kind(nb) != "lesson", nb.name))
     if args.only:
         wanted = tuple(x.strip() for x in args.only.split(",") if x.strip())
         nbs = [nb for nb in nbs if nb.name.startswith(wanted)]
