@@ -655,7 +655,10 @@ def _normalise(doc: dict, where: str) -> dict:
             if "name" not in e or not ({"plants", "options"} & set(e)):
                 _err(where, "estimators", f"a table entry needs name and plants or options, "
                                           f"got {e!r}")
-            if not isinstance(e["name"], str) or e["name"] not in avail:
+            if not isinstance(e["name"], str):
+                _err(where, "estimators", f"a table entry's name is one estimator name (a "
+                                          f"string), got {e['name']!r}: one entry per estimator")
+            if e["name"] not in avail:
                 raise SpecError(f"{where}: key 'estimators': unknown estimator "
                                 f"{e['name']!r}; available: {', '.join(avail)}")
             sweep = _option_sweep(where, avail[e["name"]], e.get("options", {}))

@@ -126,6 +126,8 @@ class EstimatorSpec:
                                     f"options: {have})")
             out[k] = parse_option(self.name, k, v, self.options[k])
         return out
+
+    @property
     def needs(self) -> tuple[str, ...]:
         return BASE_COLUMNS + tuple(self.columns)
 
