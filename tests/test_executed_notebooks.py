@@ -178,17 +178,22 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
 
 def solution_problems(nb: nbformat.NotebookNode, exercises: int) -> list[str]:
     """What an executed solutions notebook does wrong: every exercise ``1..exercises`` of its
-    lesson has a ``**Exercise N.**`` cell followed by code whose checker says ``correct``."""
+    lesson has a ``**Exercise N.**`` cell (or a heading ``## Exercise N``) followed by code
+    whose checker says ``correct``."""
     problems = []
     cells = nb.cells
-    starts = _exercise_starts(cells)
-    labels = [cells[i].source.lstrip()[:20].split(".**")[0].strip("* ") for i in starts]
+    heads = [(i, re.match(r"(?:#+\s*|\*\*)Exercise (\d+)", c.source.lstrip()))
+             for i, c in enumerate(cells) if c.cell_type == "markdown"]
+    starts = [i for i, m in heads if m]
+    labels = [f"Exercise {m.group(1)}" for _, m in heads if m]
     for n in range(1, exercises + 1):
         if f"Exercise {n}" not in labels:
             problems.append(f"no worked solution of Exercise {n}")
             continue
         i = starts[labels.index(f"Exercise {n}")]
-        st = [x for c in _block(cells, i) if c.cell_type == "code" for x in _statuses(c)]
+        nxt = [j for j in starts if j > i]
+        block = cells[i + 1:nxt[0] if nxt else len(cells)]
+        st = [x for c in block if c.cell_type == "code" for x in _statuses(c)]
         if not st or st[-1] != "correct":
             problems.append(f"Exercise {n}: the solution's checker said {st} (want 'correct' last)")
     return problems

@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import save
 from vehicle_observers.baselines import kalman as K
 from vehicle_observers.cli.main import EXIT_INPUT, main
 from vehicle_observers.core.metrics import rmse
@@ -243,7 +244,6 @@ def test_reference_column_jump_is_warned_not_refused(stopgo, vehicle_file, tmp_p
     column and a jump, not a unit such as the steering-wheel angle; the same factor in the
     yaw rate, which the EKF reads, still refuses the log (catches checks on the wrong
     columns and a cause named from the factor alone)."""
-    from conftest import save
     from vehicle_observers.data.logs import _step_why
 
     def jump(col, f=17.5):

@@ -208,7 +208,9 @@ def test_estimators_without_row_flags_exit_0(capsys, plugins, revs60, tmp_path, 
                            revs60, "--vehicle", "revs250lm", "--observer", observer,
                            "--out", out)
     assert code == 0, err
-    assert "no row flags" in o and out.exists()
+    assert out.exists()
+    if observer != "mbds-kf":          # mbds-kf runs per stretch in motion: it has row flags
+        assert "no row flags" in o
 
 
 def test_observers_lists_real_needs_options_and_plugins(capsys, plugins):

@@ -74,7 +74,12 @@ def test_ts_form_integrates_to_the_nonlinear_model_by_an_independent_integration
         wrong.B[i, 2:] *= zv[2] / 10
     assert (np.abs(_ts_run(wrong, t, delta, vx) - x_ref) / scale).max() > 0.1
     # and a wrong sign (the rear slip's +l_r r / v_x taken as -)
-    p_bad = replace(p, a_r=-p.a_r)
+    # (a planted model error, not a car: LateralParams refuses a negative l_r when built, so the
+    # sign is flipped on a copy after construction)
+    import copy
+
+    p_bad = copy.copy(p)
+    object.__setattr__(p_bad, "a_r", -p.a_r)
     bad = lateral.yacine_ts(p_bad, Mf=(Y.M_f2, Y.M_f1), Mr=(Y.M_r2, Y.M_r1), vx_bounds=(Y.vx_min, Y.vx_max))
     x_bad, _ = lateral.simulate_ts(bad, np.zeros(4), delta, vx, 1e-3, p, substeps=4)
     assert (np.abs(x_bad - x_ref) / scale).max() > 0.1

@@ -232,6 +232,8 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
         with deadline(d.get("timeout_s")):
             _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators, name, opts)
     except Exception as exc:  # noqa: BLE001 - every failure of a task is recorded, not raised
+        if isinstance(exc.__cause__, TaskTimeout):   # the stop landed in a plug-in's code,
+            exc = exc.__cause__                      # which the registry wraps in PluginError
         msg = str(exc).splitlines()[0] if str(exc) else ""
         if isinstance(exc, TaskTimeout):
             msg = (f"estimator {tk.estimator!r}: task ran longer than timeout_s = "
