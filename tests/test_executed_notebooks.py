@@ -178,22 +178,15 @@ def exercise_problems(nb: nbformat.NotebookNode, minimum: int = 3) -> list[str]:
 
 def solution_problems(nb: nbformat.NotebookNode, exercises: int) -> list[str]:
     """What an executed solutions notebook does wrong: every exercise ``1..exercises`` of its
-    lesson has a ``**Exercise N.**`` cell (or a heading ``## Exercise N``) followed by code
-    whose checker says ``correct``."""
+    lesson is solved by code that calls its checker (``check_N(``) and the checker says
+    ``correct``."""
     problems = []
-    cells = nb.cells
-    heads = [(i, re.match(r"(?:#+\s*|\*\*)Exercise (\d+)", c.source.lstrip()))
-             for i, c in enumerate(cells) if c.cell_type == "markdown"]
-    starts = [i for i, m in heads if m]
-    labels = [f"Exercise {m.group(1)}" for _, m in heads if m]
     for n in range(1, exercises + 1):
-        if f"Exercise {n}" not in labels:
-            problems.append(f"no worked solution of Exercise {n}")
+        cells = [c for c in nb.cells if c.cell_type == "code" and f"check_{n}(" in c.source]
+        if not cells:
+            problems.append(f"no worked solution of Exercise {n} (no call of check_{n})")
             continue
-        i = starts[labels.index(f"Exercise {n}")]
-        nxt = [j for j in starts if j > i]
-        block = cells[i + 1:nxt[0] if nxt else len(cells)]
-        st = [x for c in block if c.cell_type == "code" for x in _statuses(c)]
+        st = [x for c in cells for x in _statuses(c)]
         if not st or st[-1] != "correct":
             problems.append(f"Exercise {n}: the solution's checker said {st} (want 'correct' last)")
     return problems
@@ -359,12 +352,12 @@ def test_solutions_checker_wants_every_exercise_solved_correctly():
     nb = new_notebook()
     for n, st in ((1, "correct"), (2, "not yet")):
         nb.cells.append(nbformat.v4.new_markdown_cell(f"**Exercise {n}.** Worked solution."))
-        c = new_code_cell("ex.check(f)")
+        c = new_code_cell(f"ex.check_{n}(f)")
         c.outputs = _status(st)
         nb.cells.append(c)
     assert solution_problems(nb, 2) == ["Exercise 2: the solution's checker said ['not yet'] "
                                         "(want 'correct' last)"]
-    assert solution_problems(nb, 3)[-1] == "no worked solution of Exercise 3"
+    assert solution_problems(nb, 3)[-1] == "no worked solution of Exercise 3 (no call of check_3)"
 
 
 def test_lesson_output_checker_rejects_long_tables_and_empty_cells():
