@@ -313,3 +313,106 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
     return ObserverCertificate(cert, poles, fails, hinf,
                                gamma if any(isinstance(x, BoundedReal)
                                             for x in synthesis.constraints) else None)
+
+
+# ---- parameter-dependent Lyapunov designs -------------------------------------------------
+def _pd_matrix(con, sv, Pi, Ki, j, R, cval):
+    """Numpy matrix ``G_ij`` of :mod:`vehicle_observers.design.lyapunov` (Decay or
+    InputToState) at Lyapunov matrix / gain ``(P_i, K_i)`` and vertex ``j`` of ``sv``, with
+    the rate term ``R`` (n, n)."""
+    A, C, E, D = sv.A[j], sv.C[j], sv.E[j], sv.D[j]
+    PA = Pi @ A - Ki @ C
+    X = PA + PA.T + R
+    if isinstance(con, Decay):
+        return X + 2.0 * con.alpha * Pi
+    X = X + con.alpha * Pi
+    PE = Pi @ E - Ki @ D
+    return np.block([[X, PE], [PE.T, -cval * np.eye(E.shape[1])]])
+
+
+def certify_parameter_dependent(synthesis, P, L, M, c=None,
+                                min_relative_margin: float = MIN_RELATIVE_MARGIN,
+                                max_condition: float = MAX_CONDITION) -> ObserverCertificate:
+    """Certify a :class:`~vehicle_observers.design.lyapunov.ParameterDependentSynthesis`
+    solution from the data alone: per mode ``m``, ``P[m]`` (q, n, n), ``L[m]`` (q, n, p),
+    ``M[m]`` (n, n) or ``None``, ``c`` (modes,) the input-to-state bounds.
+
+    Rebuilt here in numpy (``K_k = P_k L_k``): ``P_k - P_lower I > 0`` and ``P_k`` itself
+    (conditioning), ``P_k + M > 0``, the rate term ``R = sum_k phi_k (P_k + M)`` from the
+    system's ``rate_bounds``, every LMI ``sum coef G_ij < 0`` of the coupling (on the vertex
+    list each constraint is stated on), the Metzler entries of ``A_k - L_k C_k`` (from ``L``),
+    and the poles of every frozen vertex error system ``A_k - L_k C_k`` of an LMI's vertex
+    list (stable; ``Re < -alpha`` under a :class:`Decay`). Names as posed (``label[m,k]``
+    ...); a failing one is named by :meth:`ObserverCertificate.reason`."""
+    from vehicle_observers.design.lyapunov import rate_term
+
+    syn = synthesis
+    checks: list[ConstraintCheck] = []
+    fails = []
+    n_modes = len(syn.modes)
+    if len(P) != n_modes or len(L) != n_modes or len(M) != n_modes:
+        raise ObserverArgumentError(f"certify_parameter_dependent: P, L, M need one entry per "
+                                    f"mode ({n_modes})")
+    poles = []
+    for m, s in enumerate(syn.modes):
+        Pm = np.asarray(P[m], dtype=float)
+        Lm = np.asarray(L[m], dtype=float)
+        if Pm.shape != (s.q, s.n, s.n) or Lm.shape != (s.q, s.n, s.p):
+            raise ObserverArgumentError(f"certify_parameter_dependent: mode {m + 1}: P must be "
+                                        f"({s.q}, {s.n}, {s.n}) and L ({s.q}, {s.n}, {s.p}); "
+                                        f"got {Pm.shape}, {Lm.shape}")
+        Pm = (Pm + np.swapaxes(Pm, 1, 2)) / 2
+        Km = Pm @ Lm
+        Mm = None if M[m] is None else (np.asarray(M[m], float) + np.asarray(M[m], float).T) / 2
+        if syn.slack and Mm is None:
+            raise ObserverArgumentError("certify_parameter_dependent: the slack design needs M")
+        I = np.eye(s.n)
+        for k in range(s.q):
+            sk = syn.suffix(m, f"{k + 1}")
+            if syn.P_lower is not None:
+                checks.append(check_matrix(f"P{sk} - P_lower I > 0", Pm[k] - syn.P_lower * I,
+                                           "pos"))
+            checks.append(check_matrix(f"P{sk} > 0 (conditioning)", Pm[k], "pos"))
+            if Mm is not None:
+                checks.append(check_matrix(f"P{sk} + M{syn.mode_tag(m)} > 0", Pm[k] + Mm, "pos"))
+        R = rate_term(list(Pm), Mm, np.asarray(s.rate_bounds, float))
+        R = np.zeros((s.n, s.n)) if R is None else R
+        for con in syn.constraints:
+            inner, sv = syn.inner(con), syn.vertex_system(con, m)
+            if isinstance(inner, Metzler):
+                for k in range(s.q):
+                    sk = syn.suffix(m, f"{k + 1}")
+                    Acl = sv.A[k] - Lm[k] @ sv.C[k]
+                    off = Acl[~np.eye(s.n, dtype=bool)]
+                    mn = float(off.min()) if off.size else 0.0
+                    checks.append(ConstraintCheck(f"{inner.label}{sk}", "nonneg", mn,
+                                                  mn / max(float(np.abs(Acl).max()), 1e-300),
+                                                  0.0, off.size))
+                    if inner.diag_shift is not None:
+                        dm = float((np.diag(Acl) + inner.diag_shift).min())
+                        checks.append(ConstraintCheck(f"{inner.label} diag{sk}", "nonneg", dm,
+                                                      dm / inner.diag_shift, 0.0, s.n))
+                continue
+            cv = None
+            if isinstance(inner, InputToState):
+                cv = inner.c if inner.c is not None else (None if c is None else float(c[m]))
+                if cv is None:
+                    raise ObserverArgumentError("certify_parameter_dependent: the input-to-state "
+                                                "constraint needs c")
+            G = {}
+            for suffix, combo in syn.terms(m):
+                for _, i, j in combo:
+                    if (i, j) not in G:
+                        G[(i, j)] = _pd_matrix(inner, sv, Pm[i], Km[i], j, R, cv)
+                checks.append(check_matrix(f"{inner.label}{suffix}",
+                                           sum(coef * G[(i, j)] for coef, i, j in combo), "neg"))
+            for k in range(s.q):
+                ev = np.linalg.eigvals(sv.A[k] - Lm[k] @ sv.C[k])
+                poles.append(ev)
+                lim = -inner.alpha if isinstance(inner, Decay) else 0.0
+                if np.any(ev.real >= lim):
+                    fails.append(f"{inner.label}{syn.suffix(m, str(k + 1))}: pole "
+                                 f"{ev[np.argmax(ev.real)]:.4g} of A_k - L_k C_k has Re >= "
+                                 f"{lim:g}")
+    cert = Certificate(checks, min_relative_margin, max_condition)
+    return ObserverCertificate(cert, np.array(poles) if poles else np.zeros((0, 0)), fails)

@@ -123,3 +123,36 @@ class Metzler:
 
 
 CONSTRAINTS = (Decay, InRegion, BoundedReal, InputToState, Metzler)
+
+
+@dataclass(frozen=True)
+class OnVertices:
+    """``constraint`` imposed on another vertex list than the design's own system.
+
+    ``systems``: one :class:`~vehicle_observers.design.system.PolytopicSystem` (or one per
+    mode of a multi-mode design) with as many vertices as the design's system: vertex ``k``
+    of ``systems`` is constrained with the Lyapunov matrix and the gain of the design's vertex
+    ``k``. Example: an interval observer whose error system must be cooperative on the
+    element-wise lower bounds ``A^-_k`` while its decay / input-to-state condition is stated on
+    the upper bounds ``A^+_k`` (Ifqir et al. 2017, Theorem 2 (19)-(20)). Used by
+    :class:`~vehicle_observers.design.lyapunov.ParameterDependentSynthesis`; the label is the
+    inner constraint's."""
+
+    constraint: object
+    systems: object
+
+    def __post_init__(self):
+        from vehicle_observers.design.system import PolytopicSystem
+
+        if not isinstance(self.constraint, (Decay, InputToState, Metzler)):
+            raise ObserverArgumentError("OnVertices: constraint must be a Decay, InputToState "
+                                        f"or Metzler, got {type(self.constraint).__name__}")
+        ss = self.systems if isinstance(self.systems, (list, tuple)) else (self.systems,)
+        if not ss or not all(isinstance(x, PolytopicSystem) for x in ss):
+            raise ObserverArgumentError("OnVertices: systems must be a PolytopicSystem or a "
+                                        "list of them (one per mode)")
+        object.__setattr__(self, "systems", tuple(ss))
+
+    @property
+    def label(self) -> str:
+        return self.constraint.label

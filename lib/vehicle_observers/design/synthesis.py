@@ -71,15 +71,18 @@ GAINS = ("common", "pdc", "pairs")
 RELAXATIONS = ("tanaka", "tuan")
 
 
-def terms(system: PolytopicSystem, gains: str, n_gains: int, relaxation: str):
+def terms(system: PolytopicSystem, gains: str, n_gains: int, relaxation: str,
+          double_sum: bool = False):
     """The LMIs of a gain structure: list of ``(suffix, [(coef, i, j), ...])``; each LMI is
-    ``sum coef G_ij < 0`` (0-based ``i`` vertex, ``j`` gain)."""
+    ``sum coef G_ij < 0`` (0-based ``i`` vertex, ``j`` gain). ``double_sum``: relax the PDC
+    double sum even with a common ``C`` (a vertex-dependent Lyapunov matrix ``P_i`` makes
+    ``P(h) A(h)`` a double sum, :mod:`vehicle_observers.design.lyapunov`)."""
     q = system.q
     if gains == "common":
         return [(f"[{i + 1}]", [(1.0, i, 0)]) for i in range(q)]
     if gains == "pairs":
         return [(f"[{i + 1},{j + 1}]", [(1.0, i, j)]) for i in range(q) for j in range(n_gains)]
-    if system.common_C or q == 1:
+    if (system.common_C and not double_sum) or q == 1:
         return [(f"[{i + 1}]", [(1.0, i, i)]) for i in range(q)]
     out = [(f"[{i + 1},{i + 1}]", [(1.0, i, i)]) for i in range(q)]
     if relaxation == "tanaka":

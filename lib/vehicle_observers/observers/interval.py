@@ -72,6 +72,13 @@ guarantee does not depend on either. (v) One ``gamma_i`` per mode, minimising
 ``lmi_eps`` (1e-2) is imposed on (17)-(19); otherwise min gamma sits on the boundary and the
 certified eigenvalue margins are ~1e-7.
 
+The LMIs are posed and certified by the synthesis layer (:func:`theorem2_synthesis`, a call
+of :class:`vehicle_observers.design.lyapunov.ParameterDependentSynthesis`: vertex-dependent
+``P_i^j`` with the slack ``M_i`` and the rate bounds ``phi``, (19) on the ``A^+`` vertices,
+(20) on the ``A^-`` vertices, ``sum_i gamma_i`` over the modes); the layer re-certifies every
+LMI from the vertex matrices, ``phi``, ``P``, ``L`` and ``M``
+(:attr:`IntervalDesign.data_certificate`).
+
 Observer class: :class:`IntervalObserver` (the contract of
 :mod:`vehicle_observers.core.protocol`: readable Euler step of :func:`implemented_rhs`,
 compiled loop :func:`_interval_loop`). The check of the slides' printed solution, the
@@ -120,6 +127,9 @@ class IntervalDesign:
     metzler_margins: np.ndarray      # (K, 4) min off-diagonal of A^{j-} - L^j C
     solve_time: float
     gammas: np.ndarray | None = None   # (K,) per-mode gamma_i
+    #: certificate rebuilt from the data by the LMI layer
+    #: (:func:`vehicle_observers.design.certify.certify_parameter_dependent`)
+    data_certificate: object = None
 
     @property
     def certificate(self) -> Certificate | None:
@@ -159,15 +169,6 @@ def _offdiag(X):
         return np.array(items, dtype=float).reshape(1, -1)
     import cvxpy as cp
     return cp.reshape(cp.hstack(items), (1, len(items)), order="C")
-
-
-def _diag_entries(X):
-    n = X.shape[0]
-    items = [X[a, a] for a in range(n)]
-    if isinstance(X, np.ndarray):
-        return np.array(items, dtype=float).reshape(1, -1)
-    import cvxpy as cp
-    return cp.reshape(cp.hstack(items), (1, n), order="C")
 
 
 def metzler_margins(model: SwitchedIntervalModel, L: np.ndarray) -> np.ndarray:
@@ -226,6 +227,44 @@ def add_theorem2_iss(d: LMIDesign, model: SwitchedIntervalModel, phi: np.ndarray
     return gname
 
 
+def theorem2_synthesis(model: SwitchedIntervalModel, phi: np.ndarray, eps_decay: float,
+                       epsilon_shift: float | None, p_min: float, metzler_tol: float,
+                       lmi_eps: float, per_mode_gamma: bool = True,
+                       name: str = "Ifqir 2017 Theorem 2"):
+    """Theorem 2 (17)-(21) as a call of the LMI layer
+    (:class:`~vehicle_observers.design.lyapunov.ParameterDependentSynthesis`): one polytopic
+    system per mode ``i`` with the upper-bound vertices ``A_i^{j+}``, ``E = I`` (the ``P_i^j``
+    block of (19)) and the membership-rate bounds ``phi_i`` (K, 4); diagonal ``P_i^j``,
+    ``W_i^j`` (the layer's ``K``), slack ``M_i`` ((18)), the vertex coupling of (19) (no cross
+    terms, note (iv)), :class:`InputToState` ``(eps_decay, gamma_i)`` for (19) and the
+    Metzler condition (20) with the diagonal shift ``epsilon`` on the lower-bound vertices
+    ``A_i^{j-}`` (:class:`OnVertices`). Variable names ``P{i}{j}``, ``W{i}{j}``, ``M{i}``,
+    ``gamma{i}`` (``gamma`` when shared)."""
+    from vehicle_observers.design.constraints import InputToState, Metzler, OnVertices
+    from vehicle_observers.design.lyapunov import ParameterDependentSynthesis
+    from vehicle_observers.design.system import PolytopicSystem
+
+    K, C, I = model.n_modes, model.C, np.eye(N_STATE)
+    upper = [PolytopicSystem(model.A_hi[i], C, E=I, rate_bounds=phi[i],
+                             name=f"{name} mode {i + 1} (A+)") for i in range(K)]
+    lower = [PolytopicSystem(model.A_lo[i], C, rate_bounds=phi[i],
+                             name=f"{name} mode {i + 1} (A-)") for i in range(K)]
+    cons = [InputToState(alpha=eps_decay, c=None, label="ISS (19)"),
+            OnVertices(Metzler(margin=0.0, diag_shift=epsilon_shift,
+                               label="Metzler (20)"), lower)]
+
+    def strict(V):
+        # the solver keeps the off-diagonal of P A^- - W C >= metzler_tol, so its round-off
+        # cannot fail the certificate's >= 0
+        return [_offdiag(V[f"P{i}{j}"] @ model.A_lo[i, j] - V[f"W{i}{j}"] @ C) >= metzler_tol
+                for i in range(K) for j in range(4)]
+
+    return ParameterDependentSynthesis(
+        upper, cons, P="diagonal", slack=True, coupling="vertex", P_lower=p_min, eps=lmi_eps,
+        per_mode_c=per_mode_gamma, name=name, extra=strict,
+        names={"P": "P{m}{k}", "K": "W{m}{k}", "M": "M{m}", "c": "gamma{m}"})
+
+
 def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
                     epsilon_shift: float | None = 1000.0, accel_max: float = 3.0,
                     phi: np.ndarray | None = None, p_min: float = 1.0,
@@ -264,50 +303,24 @@ def design_theorem2(model: SwitchedIntervalModel, eps_decay: float = 1.0,
     model.check_metzler_feasible()
     if epsilon_shift is not None:
         model.check_diagonal_shift(epsilon_shift)
-    K, n = model.n_modes, N_STATE
+    K = model.n_modes
     phi = model.membership_rate_bounds(accel_max) if phi is None else np.asarray(phi, float)
     if phi.shape != (K, 4) or np.any(phi < 0) or not np.all(np.isfinite(phi)):
         raise ObserverArgumentError(f"phi must be a finite nonnegative ({K}, 4) array, got shape "
                          f"{phi.shape}")
 
-    C = model.C
-    d = LMIDesign(name, eps=lmi_eps)
-    for i in range(K):
-        for j in range(4):
-            d.diagonal(f"P{i}{j}", n)
-            d.matrix(f"W{i}{j}", (n, C.shape[0]))
-    gname = add_theorem2_iss(d, model, phi, eps_decay, p_min, per_mode_gamma)
-    for i in range(K):
-        for j in range(4):
-            Am = model.A_lo[i, j]
-            d.nonnegative(f"Metzler[{i + 1},{j + 1}] (20)",
-                          lambda V, i=i, j=j, Am=Am: _offdiag(V[f"P{i}{j}"] @ Am
-                                                              - V[f"W{i}{j}"] @ C))
-            if epsilon_shift is not None:
-                d.nonnegative(f"diag[{i + 1},{j + 1}] (20)",
-                              lambda V, i=i, j=j, Am=Am: _diag_entries(
-                                  V[f"P{i}{j}"] @ Am - V[f"W{i}{j}"] @ C
-                                  + epsilon_shift * V[f"P{i}{j}"]))
-
-    def strict(V):
-        out = []
-        for i in range(K):
-            for j in range(4):
-                X = V[f"P{i}{j}"] @ model.A_lo[i, j] - V[f"W{i}{j}"] @ C
-                out.append(_offdiag(X) >= metzler_tol)
-        return out
-
-    d.extra(strict)
     t0 = time.perf_counter()
-    sol = d.solve(objective=lambda V: sum(V[gname(i)] for i in range(K)))
+    syn = theorem2_synthesis(model, phi, eps_decay, epsilon_shift, p_min, metzler_tol, lmi_eps,
+                             per_mode_gamma, name)
+    res = syn.solve("c")
     dt = time.perf_counter() - t0
-    P = np.array([[np.diag(sol[f"P{i}{j}"]) for j in range(4)] for i in range(K)])
-    L = np.array([[np.linalg.solve(sol[f"P{i}{j}"], sol[f"W{i}{j}"]) for j in range(4)]
-                  for i in range(K)])
+    sol = res.solution
+    P = np.array([[np.diag(res.P[i][j]) for j in range(4)] for i in range(K)])
+    L = np.array(res.L)
     mm = certify_metzler(model, L, name)
-    gam = np.array([float(sol[gname(i)]) for i in range(K)])
+    gam = np.asarray(res.c, dtype=float)
     return IntervalDesign(model, L, P, float(gam.max()), eps_decay, epsilon_shift, phi,
-                          sol, mm, dt, gam)
+                          sol, mm, dt, gam, res.certificate)
 
 
 def blended_iss_margin(design: IntervalDesign, n: int = 2000, seed: int = 0) -> float:
