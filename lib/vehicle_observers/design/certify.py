@@ -344,8 +344,6 @@ def certify_parameter_dependent(synthesis, P, L, M, c=None,
     and the poles of every frozen vertex error system ``A_k - L_k C_k`` of an LMI's vertex
     list (stable; ``Re < -alpha`` under a :class:`Decay`). Names as posed (``label[m,k]``
     ...); a failing one is named by :meth:`ObserverCertificate.reason`."""
-    from vehicle_observers.design.lyapunov import rate_term
-
     syn = synthesis
     checks: list[ConstraintCheck] = []
     fails = []
@@ -373,10 +371,14 @@ def certify_parameter_dependent(synthesis, P, L, M, c=None,
                 checks.append(check_matrix(f"P{sk} - P_lower I > 0", Pm[k] - syn.P_lower * I,
                                            "pos"))
             checks.append(check_matrix(f"P{sk} > 0 (conditioning)", Pm[k], "pos"))
+            if syn.P_upper is not None:
+                checks.append(check_matrix(f"P_upper I - P{sk} > 0", syn.P_upper * I - Pm[k],
+                                           "pos"))
             if Mm is not None:
                 checks.append(check_matrix(f"P{sk} + M{syn.mode_tag(m)} > 0", Pm[k] + Mm, "pos"))
-        R = rate_term(list(Pm), Mm, np.asarray(s.rate_bounds, float))
-        R = np.zeros((s.n, s.n)) if R is None else R
+        # dP/dt <= R, rebuilt here from the system's rate bounds (not the builders' code)
+        phi = np.asarray(s.rate_bounds, dtype=float)
+        R = np.einsum("k,kab->ab", phi, Pm + (0.0 if Mm is None else Mm[None]))
         for con in syn.constraints:
             inner, sv = syn.inner(con), syn.vertex_system(con, m)
             if isinstance(inner, Metzler):

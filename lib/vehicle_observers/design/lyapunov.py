@@ -149,6 +149,7 @@ class ParameterDependentSynthesis:
     coupling : ``"relaxed"`` or ``"vertex"`` (module docstring).
     relaxation : ``"tuan"`` or ``"tanaka"`` (``coupling="relaxed"``).
     P_lower : normalisation ``P_k - P_lower I > 0`` (``None``: ``P_k > 0``).
+    P_upper : ``P_upper I - P_k > 0`` (conditioning bound), ``None`` to omit.
     eps : strictness imposed on the solver (``LMIDesign.eps``).
     per_mode_c : one ``c_m`` per mode (minimise the sum) or one shared ``c``.
     extra : ``fn(V) -> list`` of further cvxpy constraints on the variables (solver side only,
@@ -161,7 +162,8 @@ class ParameterDependentSynthesis:
 
     def __init__(self, modes, constraints=(), P: str = "symmetric", slack: bool = True,
                  coupling: str = "relaxed", relaxation: str = "tuan",
-                 P_lower: float | None = 1.0, eps: float = 1e-7, per_mode_c: bool = True,
+                 P_lower: float | None = 1.0, P_upper: float | None = None, eps: float = 1e-7,
+                 per_mode_c: bool = True,
                  names: dict | None = None, extra=None,
                  name: str = "parameter-dependent design"):
         who = f"ParameterDependentSynthesis {name!r}"
@@ -214,8 +216,12 @@ class ParameterDependentSynthesis:
                                         f"{coupling!r}")
         if relaxation not in RELAXATIONS:
             raise ObserverArgumentError(f"{who}: relaxation must be one of {RELAXATIONS}")
-        if P_lower is not None and not (np.isfinite(P_lower) and P_lower > 0):
-            raise ObserverArgumentError(f"{who}: P_lower must be finite and > 0 (or None)")
+        for what, v in (("P_lower", P_lower), ("P_upper", P_upper)):
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise ObserverArgumentError(f"{who}: {what} must be finite and > 0 (or None)")
+        if P_lower is not None and P_upper is not None and P_upper <= P_lower:
+            raise ObserverArgumentError(f"{who}: P_upper must exceed P_lower")
+        self.P_upper = P_upper
         nm = dict(NAMES)
         nm.update(names or {})
         self.modes, self.constraints, self.P_kind, self.slack = ms, cons, P, bool(slack)
@@ -313,6 +319,9 @@ class ParameterDependentSynthesis:
                                lambda V, x=Pn[k], pl=self.P_lower: V[x] - pl * I)
                 else:
                     d.positive(f"P{sk} > 0", lambda V, x=Pn[k]: V[x])
+                if self.P_upper is not None:
+                    d.positive(f"P_upper I - P{sk} > 0",
+                               lambda V, x=Pn[k], pu=self.P_upper: pu * I - V[x])
                 if self.slack:
                     d.positive(f"P{sk} + M{self.mode_tag(m)} > 0",
                                lambda V, x=Pn[k], y=Mn: V[x] + V[y])
