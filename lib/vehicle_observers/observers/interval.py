@@ -135,7 +135,8 @@ class IntervalDesign:
     def certificate(self) -> Certificate | None:
         """The LMI certificate of (17)-(20) (eigenvalues / entries of the numeric solution,
         independent of the solver), ``None`` for a design without a solution. The Metzler
-        guarantee is re-checked separately (:attr:`metzler_margins`)."""
+        guarantee is re-checked separately (:attr:`metzler_margins`), and every LMI is
+        rebuilt from the vertex data in :attr:`data_certificate`."""
         return self.solution.certificate if self.solution else None
 
     @property

@@ -90,11 +90,14 @@ class CoordinateIntervalDesign:
 
     @property
     def certified(self) -> bool:
-        """Independent certificate: every LMI block checked by eigenvalues and every
-        ``A_z^- - L C_z`` Metzler (re-checked here, not taken from the solver status)."""
+        """Independent certificate: every LMI block checked by eigenvalues, the LMIs rebuilt
+        from the vertex data by the synthesis layer (:attr:`IntervalDesign.data_certificate`)
+        and every ``A_z^- - L C_z`` Metzler (re-checked here, not taken from the solver
+        status)."""
         cert = self.design.solution.certificate
+        data = self.design.data_certificate
         mm = iv.metzler_margins(self.design.model, self.design.L)
-        return bool(cert.ok and np.all(mm >= 0))
+        return bool(cert.ok and (data is None or data.ok) and np.all(mm >= 0))
 
 
 def design(veh: UncertainBicycle, bands: SpeedBands, dt: float,
