@@ -16,10 +16,11 @@ from vehicle_observers.design.synthesis import ObserverSynthesis, _diag
 from vehicle_observers.design.system import PolytopicSystem
 
 #: two Hurwitz matrices (eigenvalues -0.1 +- 1.41j) whose convex combinations are all
-#: Hurwitz but which have no common quadratic Lyapunov function: switching fast between
-#: them makes the state grow (the classic pair of Liberzon, "Switching in Systems and
-#: Control", 2003, Part I); checked below by a simulation
-LIBERZON = (np.array([[-0.1, 1.0], [-2.0, -0.1]]), np.array([[-0.1, 2.0], [-1.0, -0.1]]))
+#: Hurwitz (off-diagonal product (1 + t)(t - 2) < 0, real part -0.1) but which have no common
+#: quadratic Lyapunov function: switching between the two stable spirals at the right
+#: moments makes the state grow (the textbook example of switched-system instability);
+#: checked below by a simulation
+SPIRALS = (np.array([[-0.1, 1.0], [-2.0, -0.1]]), np.array([[-0.1, 2.0], [-1.0, -0.1]]))
 C3 = np.array([[0.0, 0.0, 1.0]])
 
 
@@ -33,17 +34,17 @@ def _embed(A0, a31=0.0):
     return A
 
 
-def liberzon_system(phi):
-    return PolytopicSystem(np.array([_embed(a) for a in LIBERZON]), C3, E=np.eye(3),
-                           rate_bounds=[phi, phi], name="Liberzon pair")
+def spirals_system(phi):
+    return PolytopicSystem(np.array([_embed(a) for a in SPIRALS]), C3, E=np.eye(3),
+                           rate_bounds=[phi, phi], name="two spirals")
 
 
 def _switched_growth():
     """|x(20 s)| / |x(0)| of x' = A_sigma x with sigma(x) the vertex of largest d|x|^2/dt."""
     x, dt = np.array([1.0, 0.0]), 1e-3
     for _ in range(20000):
-        j = int(np.argmax([x @ (a + a.T) @ x for a in LIBERZON]))
-        x = x + dt * LIBERZON[j] @ x
+        j = int(np.argmax([x @ (a + a.T) @ x for a in SPIRALS]))
+        x = x + dt * SPIRALS[j] @ x
     return float(np.linalg.norm(x))
 
 
@@ -58,16 +59,16 @@ def test_pd_lyapunov_certifies_where_common_p_cannot():
     vertex-dependence of P (infeasible at small phi)."""
     assert _switched_growth() > 10.0                    # no common quadratic Lyapunov function
     with pytest.raises(InfeasibleDesign):
-        ObserverSynthesis(liberzon_system(0.0), [Decay(0.0)], gains="pdc").solve()
-    des = ParameterDependentSynthesis(liberzon_system(0.05), [Decay(0.0)]).solve()
+        ObserverSynthesis(spirals_system(0.0), [Decay(0.0)], gains="pdc").solve()
+    des = ParameterDependentSynthesis(spirals_system(0.05), [Decay(0.0)]).solve()
     assert des.status == "certified" and des.certificate.lmi.min_relative_margin > 1e-6
     assert np.abs(des.P[0][0] - des.P[0][1]).max() > 0.1     # a genuinely varying P(h)
     with pytest.raises(InfeasibleDesign):
-        ParameterDependentSynthesis(liberzon_system(10.0), [Decay(0.0)]).solve()
+        ParameterDependentSynthesis(spirals_system(10.0), [Decay(0.0)]).solve()
     # slack M (Mozelli 2009) is less conservative than M = 0 (Tanaka 2003)
-    ParameterDependentSynthesis(liberzon_system(0.2), [Decay(0.0)]).solve()
+    ParameterDependentSynthesis(spirals_system(0.2), [Decay(0.0)]).solve()
     with pytest.raises(InfeasibleDesign):
-        ParameterDependentSynthesis(liberzon_system(0.2), [Decay(0.0)], slack=False).solve()
+        ParameterDependentSynthesis(spirals_system(0.2), [Decay(0.0)], slack=False).solve()
 
 
 def test_certified_v_decreases_along_an_admissible_trajectory():
@@ -76,9 +77,9 @@ def test_certified_v_decreases_along_an_admissible_trajectory():
     at every step of an RK4 simulation (Decay(0): V' < 0). Catches certificates whose rate
     term does not bound dP/dt or whose gain is blended the wrong way."""
     phi = 0.05
-    des = ParameterDependentSynthesis(liberzon_system(phi), [Decay(0.0)]).solve()
+    des = ParameterDependentSynthesis(spirals_system(phi), [Decay(0.0)]).solve()
     Pk, Kk = des.P[0], des.P[0] @ des.L[0]
-    A = liberzon_system(phi).A
+    A = spirals_system(phi).A
     w = 2 * phi
 
     def h(t):
@@ -175,18 +176,18 @@ def test_planted_wrong_vertex_and_wrong_rate_are_violated(monkeypatch):
 
     monkeypatch.setattr(ly, "pair_matrix", last_vertex)
     with pytest.raises(CertificationError) as ei:
-        ParameterDependentSynthesis(liberzon_system(0.05), [Decay(0.0)]).solve()
+        ParameterDependentSynthesis(spirals_system(0.05), [Decay(0.0)]).solve()
     assert ei.value.lmi.startswith("decay[")
     monkeypatch.setattr(ly, "pair_matrix", good)
 
     rate = ly.rate_term
     monkeypatch.setattr(ly, "rate_term", lambda P, M, phi: rate(P, M, np.asarray(phi) / 100))
-    des = ParameterDependentSynthesis(liberzon_system(0.3), [Decay(0.0)]).solve(
+    des = ParameterDependentSynthesis(spirals_system(0.3), [Decay(0.0)]).solve(
         raise_on_violation=False)
     assert des.status == "violated" and des.certificate.worst_name().startswith("decay[")
     # the same solution is certified against the rate bound it was solved for
     from vehicle_observers.design.certify import certify_parameter_dependent
-    syn03 = ParameterDependentSynthesis(liberzon_system(0.003), [Decay(0.0)])
+    syn03 = ParameterDependentSynthesis(spirals_system(0.003), [Decay(0.0)])
     assert certify_parameter_dependent(syn03, des.P, des.L, des.M).status != "violated"
 
 

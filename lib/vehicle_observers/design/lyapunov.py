@@ -16,10 +16,10 @@ Because ``sum_k h_k = 1``, ``sum_k dh_k/dt = 0`` and, for every symmetric ``M``,
 
 whenever ``P_k + M >= 0`` (Mozelli, Palhares & Avellar, "A systematic approach to improve
 multiple Lyapunov function stability and stabilization conditions for fuzzy systems",
-Information Sciences 179(8), 2009, the slack matrix ``M`` of their Theorem 6;
+Information Sciences 179(8), 2009: their slack matrix ``M``;
 ``slack=False`` sets ``M = 0``: Tanaka, Hori & Wang, "A multiple Lyapunov function approach
-to stabilization of fuzzy control systems", IEEE TFS 11(4), 2003, Theorem 2, ``R = sum_k
-phi_k P_k`` with ``P_k > 0``). With ``K_k = P_k L_k`` the LMIs at the pair ``(i, j)``
+to stabilization of fuzzy control systems", IEEE TFS 11(4), 2003: ``R = sum_k phi_k P_k``
+with ``P_k > 0``). With ``K_k = P_k L_k`` the LMIs at the pair ``(i, j)``
 (Lyapunov matrix and gain ``i``, plant vertex ``j``; ``He(X) = X + X^T``) are
 
 ================== ===========================================================================
