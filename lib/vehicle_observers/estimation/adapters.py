@@ -194,6 +194,14 @@ ACCEL_MAX = 12.0  # m/s^2
 _IV_CACHE: dict = {}
 
 
+def _layer_files() -> tuple:
+    """Source files of the LMI synthesis layer that poses and certifies Theorem 2
+    (:func:`vehicle_observers.observers.interval.theorem2_synthesis`): part of the cache key."""
+    from vehicle_observers.design import certify, constraints, lyapunov, synthesis, system
+
+    return tuple(m.__file__ for m in (lyapunov, synthesis, certify, constraints, system))
+
+
 def interval_design(vehicle, dt: float, cache: bool = False):
     """Theorem 2 design for ``vehicle`` at sample period ``dt`` (``cache=True``: also on
     disk, :func:`_disk_design`). Returns (design, seconds)."""
@@ -216,8 +224,8 @@ def interval_design(vehicle, dt: float, cache: bool = False):
         return _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
                                    accel_max=ACCEL_MAX, p_min=1.0)
 
-    des, sec = _disk_design("ifqir2017", (vehicle, dt, _iv.__file__, _ub.__file__, _lmi.__file__),
-                            build, cache)
+    des, sec = _disk_design("ifqir2017", (vehicle, dt, _iv.__file__, _ub.__file__, _lmi.__file__,
+                                          *_layer_files()), build, cache)
     _IV_CACHE[key] = (des, sec)
     return des, sec
 
@@ -339,7 +347,8 @@ def coordinate_interval_design(vehicle, dt: float, cache: bool = False):
         return _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
 
     _IV_CACHE[key] = _disk_design("coordinates", (vehicle, dt, _ic.__file__, _iv.__file__,
-                                                  _ub.__file__, _lmi.__file__), build, cache)
+                                                  _ub.__file__, _lmi.__file__, *_layer_files()),
+                                  build, cache)
     return _IV_CACHE[key]
 
 
