@@ -18,7 +18,7 @@ entries can be off by ``k * 5e-5``.
 | Wang 2018 Ex. 1, interval obs. | T, N, L | T + N C = I, T A - L C >= 0, rho 0.1040 |
 | Wang 2018 Ex. 2, interval obs. | T, N, L | idem, rho 0.4196 |
 | Chen & Patton 1999 p. 76 UIO | H, T, T A, K1, F, K | equal to 1e-4; poles of F |
-| Nazari 2015 quarter-car UIO | H = ones(4, 4) / 4 | equal (exact) |
+| Nazari 2015 quarter-car UIO | H, T, T A, k1, k | equal (1e3 x 5e-5) |
 | MATLAB ``feasp`` example | t_min = -3.1363 | quadratic stability certified |
 | MATLAB ``hinfnorm`` example | ninf = 3.0150 | 3.014975 |
 """
@@ -32,7 +32,7 @@ from vehicle_observers.design.constraints import Decay, InRegion, Metzler
 from vehicle_observers.design.lmi import unit_disk
 from vehicle_observers.design.synthesis import ObserverSynthesis
 from vehicle_observers.design.system import PolytopicSystem
-from vehicle_observers.design.uio import decoupling, uio_system
+from vehicle_observers.design.uio import uio_system
 
 PRINTED = 5e-5          # half a unit of the 4th printed decimal
 
@@ -235,34 +235,71 @@ def test_chen_patton_uio_example_printed_matrices_and_poles():
     assert system.unobservable_modes() == []
 
 
-def test_quarter_car_uio_printed_decoupling():
+def test_quarter_car_uio_printed_decoupling_and_gains():
     """Quarter-car suspension UIO, S. Nazari (2015), "A review of the unknown input observer
     with examples", Sec. 3.2 (repository snazari/Unknown-Input-Observer-Review-and-Examples,
     ``UIONotes.pdf``): C = eye(4), E = [1; 1; 1; 1], mb = 300, mw = 60, bs = 1000,
-    ks = 16000, kt = 190000 (A as printed: [0 1 0 0; [-ks -bs ks bs]/mb; 0 0 0 1;
-    [ks bs -ks-kt -bs]/mw]).
+    ks = 16000, kt = 190000, A = [0 1 0 0; [-ks -bs ks bs]/mb; 0 0 0 1; [ks bs -ks-kt -bs]/mw],
+    observer matrix chosen F = diag(-4, -4, -4, -4), "k1 = inv(C)*(A-F-H*C*A)", "k = k1 + k2"
+    with k2 = F H.
 
-    Printed: "H =" sixteen entries "0.2500" and T with four entries 0.7500 and twelve -0.2500
-    (the column layout is lost in the text extraction, so the test compares H entry by entry
-    and T as a multiset). The layer's ``decoupling`` must give H = E (C E)^+ = ones(4, 4)/4
-    exactly and T = I - H; ``uio_system`` then needs (C, T A) detectable, which holds (C = I).
+    Printed (MATLAB output; the text extraction lists each matrix column by column): "H ="
+    sixteen entries 0.2500; T with four entries 0.7500 and twelve -0.2500 (compared as a
+    multiset, the layout is lost); T A = "1.0e+03 *" [-0.0533 -0.1067 -0.0533 0.2133 | -0.0026
+    -0.0069 -0.0036 0.0131 | 0.8450 0.8983 0.8450 -2.5883 | 0.0031 0.0064 0.0041 -0.0136];
+    "k1 = 1.0e+03 *" [-0.0493 -0.1067 -0.0533 0.2133 | -0.0026 -0.0029 -0.0036 0.0131 | 0.8450
+    0.8983 0.8490 -2.5883 | 0.0031 0.0064 0.0041 -0.0096]; "k = 1.0e+03 *" [-0.0503 -0.1077
+    -0.0543 0.2123 | -0.0036 -0.0039 -0.0046 0.0121 | 0.8440 0.8973 0.8480 -2.5893 | 0.0021
+    0.0054 0.0031 -0.0106] (columns separated by |).
 
-    Catches: a decoupling normalised differently (e.g. H = E (E^T E)^-1 E^T C^T without the
-    pseudo-inverse of C E), and a rank test that refuses a full-rank but non-square C E."""
+    The layer: ``decoupling`` gives H = E (C E)^+ = ones(4, 4)/4 and T = I - H exactly;
+    ``uio_system`` gives T A, and ``Decoupling.gains`` with K = k1 gives N = F and L = k, all
+    equal to the printed values to 1e3 x 5e-5 = 0.05 (the printed rounding at the 1e3 scale).
+    The data certificate of the printed gain (P = 2 I, written here: with C = I,
+    He(P (T A - k1)) = -16 I) certifies a decay rate 3.9 and calls 4.1 'violated'
+    (the poles are at -4). The layer's own design at decay 1 is certified (independent check:
+    numpy eigenvalues of T A - L C).
+
+    Catches: a decoupling normalised differently (H, T differ), a gain formula without the
+    N H term (L would equal k1, not the printed k), a decay LMI with the factor 2 of 2 alpha P
+    missing (its LMI would pass at 4.1: -16 + 2 x 4.1 < 0; only the pole check would object)."""
     mb, mw, bs, ks, kt = 300.0, 60.0, 1000.0, 16000.0, 190000.0
     A = np.array([[0.0, 1.0, 0.0, 0.0],
                   [-ks / mb, -bs / mb, ks / mb, bs / mb],
                   [0.0, 0.0, 0.0, 1.0],
                   [ks / mw, bs / mw, (-ks - kt) / mw, -bs / mw]])
     E = np.ones((4, 1))
-    dec = decoupling(E, np.eye(4))
+    C = np.eye(4)
+
+    def columns(v):                    # printed column by column, x 1e3
+        return 1e3 * np.array(v).reshape(4, 4).T
+    TA_pr = columns([-0.0533, -0.1067, -0.0533, 0.2133, -0.0026, -0.0069, -0.0036, 0.0131,
+                     0.8450, 0.8983, 0.8450, -2.5883, 0.0031, 0.0064, 0.0041, -0.0136])
+    k1_pr = columns([-0.0493, -0.1067, -0.0533, 0.2133, -0.0026, -0.0029, -0.0036, 0.0131,
+                     0.8450, 0.8983, 0.8490, -2.5883, 0.0031, 0.0064, 0.0041, -0.0096])
+    k_pr = columns([-0.0503, -0.1077, -0.0543, 0.2123, -0.0036, -0.0039, -0.0046, 0.0121,
+                    0.8440, 0.8973, 0.8480, -2.5893, 0.0021, 0.0054, 0.0031, -0.0106])
+    tol = 1e3 * PRINTED
+    system, dec = uio_system(PolytopicSystem(A, C), E)
     np.testing.assert_allclose(dec.H, np.full((4, 4), 0.25), atol=1e-12)
     printed_T = np.array([0.75] * 4 + [-0.25] * 12)
     np.testing.assert_allclose(np.sort(dec.T.ravel()), np.sort(printed_T), atol=1e-12)
-    system, _ = uio_system(PolytopicSystem(A, np.eye(4)), E)
+    np.testing.assert_allclose(system.A[0], TA_pr, atol=tol)
+    F = -4.0 * np.eye(4)
+    k1 = np.linalg.solve(C, A - F - dec.H @ C @ A)          # the memo's formula for k1
+    np.testing.assert_allclose(k1, k1_pr, atol=tol)
+    Nm, Lm, _ = dec.gains(A, np.zeros((4, 1)), k1, C)
+    np.testing.assert_allclose(Nm, F, atol=1e-9)
+    np.testing.assert_allclose(Lm, k_pr, atol=tol)
+    P = 2.0 * np.eye(4)
+    ok = certify_observer(ObserverSynthesis(system, [Decay(3.9)]), P, k1[None])
+    assert ok.status == "certified", ok.reason()
+    late = certify_observer(ObserverSynthesis(system, [Decay(4.1)]), P, k1[None])
+    assert late.status == "violated"
+    assert not late.lmi.ok and late.pole_failures          # both the LMI and the poles say so
     des = ObserverSynthesis(system, [Decay(1.0)]).solve()
     assert des.status == "certified"
-    assert np.linalg.eigvals(system.A[0] - des.L[0] @ system.C[0]).real.max() < -1.0
+    assert np.linalg.eigvals(system.A[0] - des.L[0] @ C).real.max() < -1.0
 
 
 def test_matlab_feasp_example_quadratic_stability_of_three_vertices():
