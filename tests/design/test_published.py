@@ -21,6 +21,7 @@ entries can be off by ``k * 5e-5``.
 | Nazari 2015 quarter-car UIO | H, T, T A, k1, k | equal (1e3 x 5e-5) |
 | MATLAB ``feasp`` example | t_min = -3.1363 | quadratic stability certified |
 | MATLAB ``hinfnorm`` example | ninf = 3.0150 | 3.014975 |
+| Gahinet, LMI Toolbox ``sateldem`` | H-inf optimum with poles in region "near 0" | 3.5e-5 |
 """
 
 import cvxpy as cp
@@ -28,8 +29,8 @@ import numpy as np
 import pytest
 from vehicle_observers.core.errors import InfeasibleDesign
 from vehicle_observers.design.certify import certify_observer, hinf_norm
-from vehicle_observers.design.constraints import Decay, InRegion, Metzler
-from vehicle_observers.design.lmi import unit_disk
+from vehicle_observers.design.constraints import BoundedReal, Decay, InRegion, Metzler
+from vehicle_observers.design.lmi import halfplane, sector, unit_disk
 from vehicle_observers.design.synthesis import ObserverSynthesis
 from vehicle_observers.design.system import PolytopicSystem
 from vehicle_observers.design.uio import uio_system
@@ -109,8 +110,8 @@ def test_wang2018_example1_printed_interval_observer_is_positive_schur_and_repro
     Printed numbers, read in W. Ren's reproduction of the paper, repository
     WJ-Ren/Program-for-existing-papers, file ``Example1.m`` (commit e446252), comment "Or one
     can use data from the paper as follows: T = [-0.0238, 0; -0.7294, 1]; N = [1.0238;
-    0.7294]; L = [-0.0970; 0.3022];" (the paper itself was not read; the numbers are the
-    script's quotation of it). They are a solution of the paper's LMI with a fixed H-infinity
+    0.7294]; L = [-0.0970; 0.3022];" (the numbers are the script's quotation of the
+    paper, whose own page is not quoted here). They are a solution of the paper's LMI with a fixed H-infinity
     level, one of many, so the test checks what the paper claims of them, not their digits:
     T + N C = I (to 2 x 5e-5, printed rounding), T A - L C >= 0 and Schur (computed: spectral
     radius 0.1040), certified by the layer's data certificate; and the layer's own
@@ -308,8 +309,8 @@ def test_matlab_feasp_example_quadratic_stability_of_three_vertices():
     A2 = [-0.8 1.5; 1.3 -2.7], A3 = [-1.4 0.9; 0.7 -2.0] (quadratic stability of the polytope
     Co{A1, A2, A3}).
 
-    Printed (https://kr.mathworks.com/help/robust/ref/feasp.html, read through the ``search``
-    tool): " Result:  best value of t:    -3.136305 / f-radius saturation:  0.000% of R =
+    Printed (https://kr.mathworks.com/help/robust/ref/feasp.html, example output):
+    " Result:  best value of t:    -3.136305 / f-radius saturation:  0.000% of R =
     1.00e+09" and "The result tmin = -3.1363 means that the problem is f[easible]". The number
     t_min is where ``feasp``'s projective method stopped (its target is t < 0), not a unique
     optimum (t is unbounded below as P grows), so only its sign, the verdict "feasible", is a
@@ -320,8 +321,8 @@ def test_matlab_feasp_example_quadratic_stability_of_three_vertices():
     ``He(P A_i - K C) + 2 alpha P < 0`` is then the plain Lyapunov LMI) and ``P - I > 0``, as in
     the example, is certified. Beyond the printed verdict: the layer's largest quadratic decay
     rate for this polytope (``maximise_decay``) equals, within the bisection tolerance 1e-3,
-    an independent cvxpy bisection of ``A_i^T P + P A_i + 2 a P < 0`` (no published value was
-    readable: the ``gevp`` page that prints it could not be read past its first lines), and
+    an independent cvxpy bisection of ``A_i^T P + P A_i + 2 a P < 0`` (no printed value is
+    quoted: the ``gevp`` page's example output was not available in the copies consulted), and
     it cannot exceed the slowest vertex, 0.061065 = -max Re eig(A2).
 
     Catches: a decay LMI built from A instead of A^T P + P A (the verdict could still agree,
@@ -364,8 +365,8 @@ def test_matlab_hinfnorm_example_printed_norm():
     system"), example "Norm of MIMO System": G(s) = [0, 3s/(s^2 + s + 10); (s + 1)/(s + 5),
     2/(s + 6)], ``[ninf, fpeak] = hinfnorm(G)``.
 
-    Printed: "ninf = 3.0150", "fpeak = 3.1623" (read through the ``search`` tool in three
-    copies of the MathWorks page held in the Nemotron-CC-Math-v1 data set,
+    Printed: "ninf = 3.0150", "fpeak = 3.1623" (three copies of the MathWorks page held in the
+    Nemotron-CC-Math-v1 data set,
     https://huggingface.co/datasets/nvidia/Nemotron-CC-Math-v1, which agree).
 
     The layer computes the H-infinity norm of every error system in its certificate
@@ -401,6 +402,97 @@ def test_matlab_hinfnorm_example_printed_norm():
     cp.Problem(cp.Minimize(g), [P >> 0, (M + M.T) / 2 << 0]).solve(solver="CLARABEL")
     assert g.value == pytest.approx(3.0150, abs=PRINTED)
     assert g.value == pytest.approx(ninf, rel=1e-5)
+
+
+def _satellite(k, f):
+    """Two-body satellite of ``sateldem`` (module docstring of the test below): ``E0 x' =
+    (a0 + k ak + f ad) x + b1 (w + T)``, returned as ``(A, B)`` with ``A = E0^-1 (...)``."""
+    J1, J2 = 1.0, 0.1
+    a0 = np.block([[np.zeros((2, 2)), np.eye(2)], [np.zeros((2, 4))]])
+    e0 = np.diag([1.0, 1.0, J1, J2])
+    ak = np.zeros((4, 4))
+    ak[2:, :2] = [[-1.0, 1.0], [1.0, -1.0]]
+    ad = np.zeros((4, 4))
+    ad[2:, 2:] = [[-1.0, 1.0], [1.0, -1.0]]
+    b1 = np.array([[0.0], [0.0], [1.0], [0.0]])
+    return np.linalg.solve(e0, a0 + k * ak + f * ad), np.linalg.solve(e0, b1)
+
+
+def test_gahinet_sateldem_hinf_state_feedback_with_pole_region_by_duality():
+    """H-infinity state feedback with pole placement in an LMI region (Chilali & Gahinet,
+    IEEE TAC 41(3), 1996, as implemented by ``msfsyn``): P. Gahinet, demo "SATELDEM: Robust
+    state-feedback control of satellite attitude", LMI Control Toolbox, The MathWorks
+    1995-2004 (Revision 1.13.2.3), file ``Matlab/toolbox/lmi/lmictrl/sateldem.m`` in the public
+    repository HULCBio/MotionStation (commit 5ae2ec1); the example of the LMI Control Toolbox
+    manual, p. 4-13.
+
+    Data printed in the demo: J1 = 1, J2 = 0.1, "0.09 < k < 0.4 (nominal = 0.2450)",
+    "0.0038 < f < 0.04 (nominal = 0.0188)", a0, ak, ad, e0 = diag([1 1 J1 J2]), b1 = b2 =
+    [0;0;1;0], c1 = [0 1 0 0] (z = x2), d11 = d12 = 0; the region "alpha-stability -> half-plane
+    x < -0.1" and "damping ... -> sector with tip at x=0 and angle 3*pi/4" (the demo plots its
+    edges as x/tan(pi/8): |Im z| < -Re z tan(3 pi/8)). Printed answer, after
+    ``gopt=msfsyn(Pnom,[3 1],[0 0 1 0],region)``: "-> optimal performance near 0"; the demo
+    then sweeps the H-infinity levels "0.01, 0.1, 0.2, 0.5" for the nominal and the 4-vertex
+    robust designs (their numbers are loaded from a data file, not printed).
+
+    Duality (the layer designs observers): the state-feedback closed loop (A + B2 K, B1, C1)
+    is the transpose of the observer error system of A_o = A^T, C_o = B2^T, E_o = C1^T,
+    H = B1^T, D_o = D12^T = 0 with gain L = -K^T; transposition keeps the poles and the
+    H-infinity norm, and the LMIs (common Lyapunov matrix for the norm and the region, as in
+    ``msfsyn``) map one to one (P of the layer = X^-1 of the primal). The layer's min gamma
+    on the dual must be "near 0": below 1e-3, a tenth of the smallest level the demo uses
+    (computed 3.5e-5, limited by the solver; 0 is the infimum, not attained, so its backed-off
+    design is at best 'inconclusive' and is not asserted). The demo's levels 0.5, 0.2, 0.1,
+    0.01 must be certified, and 0.1 for the 4-vertex polytope (k, f at their bounds) with one
+    common gain, as ``msfsyn``'s multi-model design. Independent checks: the primal
+    state-feedback LMIs (X, Y = K X) written here in cvxpy give min gamma < 1e-3 too; the
+    gain K = -L^T of the design at 0.1, mapped back, puts the closed-loop poles (numpy) in
+    the region and its norm w -> x2 (frequency sweep, 4000 points) below 0.1.
+
+    Catches: a sector with the sign of sin(theta) flipped (the cone then opens to the right
+    and, with the half-plane, the design is infeasible: checked), a dual mapping with E_o and
+    H swapped (the level 0.1 becomes infeasible: checked), a region or norm LMI that is not
+    posed on the closed loop the gain produces (the mapped-back poles or peak fail)."""
+    region = [InRegion(halfplane(0.1)), InRegion(sector(3 * np.pi / 8))]
+    A, B = _satellite(0.245, 0.0188)
+    c1 = np.array([[0.0, 1.0, 0.0, 0.0]])
+    dual = PolytopicSystem(A.T, B.T, E=c1.T, H=B.T, name="sateldem (dual)")
+    opt = ObserverSynthesis(dual, [BoundedReal()] + region).minimise(backoff=0.05)
+    assert opt.optimum < 1e-3
+    designs = {}
+    for g in (0.5, 0.2, 0.1, 0.01):
+        des = ObserverSynthesis(dual, [BoundedReal(gamma=g)] + region).solve()
+        assert des.status == "certified", (g, des.certificate.reason())
+        designs[g] = des
+    # the gain of the 0.1 design, mapped back to state feedback, checked independently
+    K = -designs[0.1].L[0].T
+    Acl = A + B @ K
+    ev = np.linalg.eigvals(Acl)
+    assert np.all(ev.real < -0.1) and np.all(np.abs(ev.imag) < -ev.real * np.tan(3 * np.pi / 8))
+    w = np.logspace(-3, 3, 4000)
+    peak = max(abs((c1 @ np.linalg.solve(1j * wk * np.eye(4) - Acl, B))[0, 0]) for wk in w)
+    assert peak < 0.1
+    # robust multi-model design: the four vertices (k, f at their bounds), one gain
+    verts = [_satellite(k, f) for k in (0.09, 0.4) for f in (0.0038, 0.04)]
+    robust = PolytopicSystem([a.T for a, _ in verts], B.T, E=c1.T, H=B.T)
+    des = ObserverSynthesis(robust, [BoundedReal(gamma=0.1)] + region).solve()
+    assert des.status == "certified"
+    # independent primal formulation (state feedback, X = P^-1, Y = K X), min gamma
+    X = cp.Variable((4, 4), symmetric=True)
+    Y = cp.Variable((1, 4))
+    gam = cp.Variable()
+    Z = A @ X + B @ Y
+    zero = np.zeros((1, 1))
+    brl = cp.bmat([[Z + Z.T, B, X @ c1.T], [B.T, -gam * np.eye(1), zero],
+                   [c1 @ X, zero, -gam * np.eye(1)]])
+    th = 3 * np.pi / 8
+    sec = cp.bmat([[np.sin(th) * (Z + Z.T), np.cos(th) * (Z - Z.T)],
+                   [np.cos(th) * (Z.T - Z), np.sin(th) * (Z + Z.T)]])
+    cons = [X >> 1e-9 * np.eye(4), (brl + brl.T) / 2 << 0, Z + Z.T + 0.2 * X << 0,
+            (sec + sec.T) / 2 << 0]
+    prob = cp.Problem(cp.Minimize(gam), cons)
+    prob.solve(solver="CLARABEL")
+    assert prob.status == cp.OPTIMAL and gam.value < 1e-3
 
 
 def test_printed_gain_with_unreachable_speed_is_infeasible_for_the_layer():
