@@ -169,12 +169,13 @@ def test_wang2018_example2_printed_interval_observer_is_positive_schur_and_repro
 
 def test_chen_patton_uio_example_printed_matrices_and_poles():
     """Unknown-input observer of J. Chen & R. J. Patton (1999), *Robust Model-Based Fault
-    Diagnosis for Dynamic Systems*, Kluwer, the example of p. 76 (Sec. 3.2 UIO of Chen, Patton
-    & Zhang 1996): A = [[-1, 1, 0], [-1, 0, 0], [0, -1, -1]], C = [[1, 0, 0], [0, 0, 1]],
+    Diagnosis for Dynamic Systems*, Springer, the example of p. 76 (the UIO of Chen, Patton &
+    Zhang): A = [[-1, 1, 0], [-1, 0, 0], [0, -1, -1]], C = [[1, 0, 0], [0, 0, 1]],
     E = [-1, 0, 0]^T.
 
     Printed numbers, read in S. Nazari (2015), "A review of the unknown input observer with
-    examples" (memo), Sec. 3.1 ("taken from page 76 of [1]"), repository
+    examples" (memo, Northeastern University; its reference [1] is Chen & Patton 1999),
+    Sec. 3.1 ("taken from page 76 of [1]"), repository
     snazari/Unknown-Input-Observer-Review-and-Examples, file ``UIONotes.pdf`` (MATLAB output,
     text extracted with pdfminer; the extraction scrambles the column layout, the matrices
     below are reassembled from it and satisfy the memo's own relations F = A1 - K1 C and
@@ -184,8 +185,9 @@ def test_chen_patton_uio_example_printed_matrices_and_poles():
     -3.7816; -1.0 -11.3458; 0 8.2769], and the text "place the observer poles at [-2, -10,
     -5]".
 
-    The layer (``design.uio``): the minimum-norm decoupling H = E (C E)^+ is unique here
-    (C E has full column rank), so H, T, T A must equal the printed ones exactly; the observer
+    The layer (``design.uio``): H C E = E leaves the second column of H free; the memo's
+    "H = E*inv((C*E)'*(C*E))*(C*E)'" is the minimum-norm solution, the one the layer takes
+    (H = E (C E)^+), so H, T, T A must equal the printed ones exactly; the observer
     matrices from the printed K1 (``Decoupling.gains``: N = T A - K1 C, L = K1 + N H) must equal
     the printed F and K to 2 x 5e-5 (one printed entry of K1 plus rounding of the printed F).
     The poles: ``place`` was called on (A, C), not on (T A, C), so the printed K1 puts
