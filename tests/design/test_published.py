@@ -89,9 +89,11 @@ def _interval_observer_case(A, C, T, N, L):
     syn = ObserverSynthesis(system, constraints, P="diagonal")
     cert = certify_observer(syn, _diagonal_schur_certificate(G), L[None])
     assert cert.status == "certified", cert.reason()
-    # the same certificate rejects a gain that breaks positivity (sign of L flipped)
+    # the same certificate rejects a gain that breaks positivity (sign of L flipped: a
+    # negative diagonal entry of T A + L C, which discrete-time positivity forbids)
     bad = certify_observer(syn, 2.0 * np.eye(n), -L[None])
     assert bad.status == "violated"
+    assert bad.lmi.worst().name.startswith("metzler diag"), bad.reason()
     # the layer's own design on the printed T: cooperative and at least as fast as printed
     target = 1.05 * rho
     des = ObserverSynthesis(system, [InRegion(unit_disk(target)), Metzler(diag_shift=1e-9)],
@@ -119,10 +121,12 @@ def test_wang2018_example1_printed_interval_observer_is_positive_schur_and_repro
     (5 %: margin for the solver's strictness, not a fitted number), as does an independent
     cvxpy formulation.
 
-    Catches: a Metzler/positivity certificate that ignores the sign of the off-diagonal
-    entries (the flipped gain must be 'violated'), a discrete-time region LMI with the wrong
-    block structure (a printed, valid gain would fail), a design layer that cannot reach a
-    published design's speed under the same structure."""
+    Catches: a positivity certificate that checks only the off-diagonal entries (the
+    continuous-time Metzler property) and forgets the diagonal that discrete-time positivity
+    needs (the flipped gain -L gives the entry -0.104 and must be 'violated' by that check),
+    a discrete-time region LMI with the wrong block structure (a printed, valid gain would
+    fail), a design layer that cannot reach a published design's speed under the same
+    structure."""
     A = np.array([[0.3, -0.7], [0.6, -0.5]])
     C = np.array([[1.0, 0.0]])
     T = np.array([[-0.0238, 0.0], [-0.7294, 1.0]])
