@@ -331,8 +331,9 @@ def test_matlab_feasp_example_quadratic_stability_of_three_vertices():
     quoted: the ``gevp`` page's example output was not available in the copies consulted), and
     it cannot exceed the slowest vertex, 0.061065 = -max Re eig(A2).
 
-    Catches: a decay LMI built from A instead of A^T P + P A (the verdict could still agree,
-    the decay rate would not), a bisection that stops on the infeasible side."""
+    Catches: a decay LMI with alpha P instead of 2 alpha P (the verdict would still agree,
+    the decay rate would double: 0.122 against the bisection's 0.061), a bisection that
+    stops on the infeasible side (the certificate of the optimum would fail)."""
     Av = [np.array([[-1.0, 2.0], [1.0, -3.0]]), np.array([[-0.8, 1.5], [1.3, -2.7]]),
           np.array([[-1.4, 0.9], [0.7, -2.0]])]
     system = PolytopicSystem(Av, np.zeros((1, 2)), name="feasp example")
