@@ -22,6 +22,7 @@ entries can be off by ``k * 5e-5``.
 | MATLAB ``feasp`` example | t_min = -3.1363 | quadratic stability certified |
 | MATLAB ``hinfnorm`` example | ninf = 3.0150 | 3.014975 |
 | Gahinet, LMI Toolbox ``sateldem`` | H-inf optimum with poles in region "near 0" | 3.5e-5 |
+| Chen, Patton & Zhang 1996 jet engine UIO | H, T, K, poles -3 | H to 5e-5, T 1.4e-4, K 3.7e-3 |
 """
 
 import cvxpy as cp
@@ -527,3 +528,75 @@ def test_printed_gain_with_unreachable_speed_is_infeasible_for_the_layer():
     # without the positivity structure the same speed is reachable (any pole placement)
     free = ObserverSynthesis(system, [InRegion(unit_disk(0.9 * bound))]).solve()
     assert free.status == "certified"
+
+
+def test_chen_patton_zhang_1996_jet_engine_robust_fault_detection_filter():
+    """J. Chen, R. J. Patton & H.-Y. Zhang (1996), "Design of unknown input observers and
+    robust fault detection filters", International Journal of Control 63(1), 85-105: the
+    original full-order UIO (their eq. (2)-(8), Theorem 1) and its example of Sec. 4, the
+    jet-engine model linearised at N_L = 450 rpm (3 states, 6 measurements).
+
+    Read in the paper itself (scanned PDF held in the public repository
+    Zichen-Yan/Unknown-input-Observer, file "reference paper/Design of unknown input observers
+    and robust fault detection filters.pdf", commit 7a52900; pages 99 and 101 read as page
+    images at 300 dpi). Printed data: A = [-1.5581 0.6925 0.3974; 0.2619 -2.2228 0.2238;
+    0 0 -10], C = [I_3; 0.55107 0.13320 0.30603; 0.55217 0.13526 0.32912; -0.25693 -0.23625
+    0.61299], E_1 = [6.2006 2.8639; 4.1048 -4.3262; 0 0]; "All eigenvalues of the robust
+    fault detection filter are set to -3"; with the design procedure (H from their (11),
+    H* = E [(C E)^T C E]^-1 (C E)^T; T = I - H C (6); A_1 = T A (13); K_1 = (A_1 + 3 I) C^+
+    (25), "where C^+ is the pseudo-inverse of C"; F = A_1 - K_1 C (7); K = K_1 + F H (4), (8)),
+    printed: H = [0.6117 -0.1170 0 0.3215 0.3220 -0.1295; -0.1170 0.9382 0 0.0605 0.0623
+    -0.1916; 0 ... 0], T = [0 0 -0.1251; 0 0 0.0783; 0 0 1.0000], K = [-0.0708 0.0443 0.5658
+    0.1400 0.1531 0.3540; 0.0443 -0.0277 -0.3540 -0.0876 -0.0958 -0.2215; 0.5658 -0.3540
+    -4.5229 -1.1193 -1.2239 -2.8297].
+
+    The layer: ``uio_system`` (H = E (C E)^+, the minimum-norm solution, equal to (11) for a
+    full-column-rank C E) gives H to 5e-5 (the printed rounding; computed 4.9e-5). T = I - H C
+    is printed inconsistently with the printed H and C by 1.3e-4 (computed here from the
+    printed numbers alone), so T is checked to 2e-4. ``Decoupling.gains`` with the paper's
+    K_1 gives F = -3 I (the printed pole assignment, exactly: C^+ C = I) and K within 4e-3 of
+    the printed K (computed gap 3.7e-3, all in the third row and column; rounding the printed
+    A, C, E_1 at their last digit moves K by at most 3.3e-5, measured by perturbation, so the
+    gap is in the paper's arithmetic, not in the rounding: a tolerance of 0.1 % of the largest
+    entry, |K| = 4.52, that a structural mistake exceeds by orders of magnitude). The layer's
+    data certificate of K_1 on the decoupled system certifies decay 2.9 and calls 3.1
+    'violated' (the poles are all at -3). Independent checks: the minimum-Frobenius-norm H
+    with H C E_1 = E_1 by cvxpy equals the printed H; numpy eigenvalues of F.
+
+    Catches: a decoupling that is not the minimum-norm solution (another H with H C E = E
+    differs from the printed one by O(1): there are 4 free directions per row), K without
+    the F H term (it would equal K_1, 2.8 away from the printed K), K_1 computed on A instead
+    of T A (F would not be -3 I), a decay certificate with the wrong factor on P."""
+    A = np.array([[-1.5581, 0.6925, 0.3974], [0.2619, -2.2228, 0.2238], [0.0, 0.0, -10.0]])
+    C = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [0.55107, 0.13320, 0.30603],
+                  [0.55217, 0.13526, 0.32912], [-0.25693, -0.23625, 0.61299]])
+    E1 = np.array([[6.2006, 2.8639], [4.1048, -4.3262], [0.0, 0.0]])
+    H_pr = np.array([[0.6117, -0.1170, 0, 0.3215, 0.3220, -0.1295],
+                     [-0.1170, 0.9382, 0, 0.0605, 0.0623, -0.1916], [0, 0, 0, 0, 0, 0]])
+    T_pr = np.array([[0.0, 0.0, -0.1251], [0.0, 0.0, 0.0783], [0.0, 0.0, 1.0]])
+    K_pr = np.array([[-0.0708, 0.0443, 0.5658, 0.1400, 0.1531, 0.3540],
+                     [0.0443, -0.0277, -0.3540, -0.0876, -0.0958, -0.2215],
+                     [0.5658, -0.3540, -4.5229, -1.1193, -1.2239, -2.8297]])
+    # the printed T and H satisfy T = I - H C only to 1.3e-4: the tolerance on T
+    assert np.abs(T_pr + H_pr @ C - np.eye(3)).max() == pytest.approx(1.3e-4, abs=1e-5)
+
+    system, dec = uio_system(PolytopicSystem(A, C), E1)
+    np.testing.assert_allclose(dec.H, H_pr, atol=PRINTED)
+    np.testing.assert_allclose(dec.T, T_pr, atol=2e-4)
+    assert dec.residual <= 1e-12
+    K1 = (system.A[0] + 3.0 * np.eye(3)) @ np.linalg.pinv(C)      # the paper's (25)
+    Fm, Km, _ = dec.gains(A, np.zeros((3, 1)), K1, C)
+    np.testing.assert_allclose(Fm, -3.0 * np.eye(3), atol=1e-9)
+    assert np.abs(Km - K_pr).max() <= 4e-3
+    assert np.abs(K1 - K_pr).max() > 1.0                 # the F H term matters
+    # independent: minimum-norm H by cvxpy, eigenvalues by numpy
+    Hv = cp.Variable((3, 6))
+    cp.Problem(cp.Minimize(cp.norm(Hv, "fro")), [Hv @ C @ E1 == E1]).solve(solver="CLARABEL")
+    np.testing.assert_allclose(Hv.value, H_pr, atol=1e-4)
+    np.testing.assert_allclose(np.linalg.eigvals(Fm).real, [-3.0] * 3, atol=1e-9)
+    # the layer's data certificate of the printed design (poles at -3)
+    P = 2.0 * np.eye(3)
+    ok = certify_observer(ObserverSynthesis(system, [Decay(2.9)]), P, K1[None])
+    assert ok.status == "certified", ok.reason()
+    late = certify_observer(ObserverSynthesis(system, [Decay(3.1)]), P, K1[None])
+    assert late.status == "violated" and late.pole_failures
