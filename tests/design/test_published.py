@@ -23,6 +23,7 @@ entries can be off by ``k * 5e-5``.
 | MATLAB ``hinfnorm`` example | ninf = 3.0150 | 3.014975 |
 | Gahinet, LMI Toolbox ``sateldem`` | H-inf optimum with poles in region "near 0" | 3.5e-5 |
 | Chen, Patton & Zhang 1996 jet engine UIO | H, T, K, poles -3 | H to 5e-5, T 1.4e-4, K 3.7e-3 |
+| Efimov et al. 2013 ECC, S^-1 x | no cooperative L; L; R, S | infeasible; exact; R != S^-1 D S |
 """
 
 import cvxpy as cp
@@ -600,3 +601,119 @@ def test_chen_patton_zhang_1996_jet_engine_robust_fault_detection_filter():
     assert ok.status == "certified", ok.reason()
     late = certify_observer(ObserverSynthesis(system, [Decay(3.1)]), P, K1[None])
     assert late.status == "violated" and late.pole_failures
+
+
+def test_efimov_2013_discrete_interval_observer_change_of_coordinates():
+    """D. Efimov, W. Perruquetti, T. Raissi & A. Zolghadri (2013), "On interval observer
+    design for time-invariant discrete-time systems", European Control Conference (ECC),
+    Zurich, pp. 2651-2656, Sec. IV.A "Comparison of observers (4) and (5)": A = [0.3 -0.7;
+    0.6 -0.5], C = [1 0] (the data of Wang 2018 Ex. 1 above). Their Theorem 2 uses the
+    time-invariant change of coordinates z = S^-1 x of Raissi, Efimov & Zolghadri (2012)
+    (Lemma 2: R = S (A - L C) S^-1 for a "R in R_+^{n x n}" with the eigenvalues of A - L C);
+    their Theorem 3 / Corollary 1 keeps the coordinates and asks |A - L C| Schur.
+
+    Read in the paper itself (PDF held in the public repository BonhomieStriker/Interval-
+    Observer, file "references/On interval observer design for time-invariant discrete-time
+    systems.pdf", commit 84ac18d; text extracted with pdftotext, the matrices checked on the
+    page image), p. 2654-2655: "there is no observer gain L in R^2 making the matrix D = A - L C
+    nonnegative. The matrix A is Schur stable (it has complex eigenvalues), but the matrix
+    A+ + A- is unstable. Applying Matlab YALMIP toolbox we obtain L = [0.3 0.6]^T, then
+    lambda(D) = [0 -0.5]^T and lambda(D+ + D-) = [0 0.5]^T", "The matrices R = [-0.5 0; 1 0],
+    S = [0.609 0.814; -1.162 0.581] satisfy to all conditions of Theorem 2".
+
+    What the layer computes: its cooperative discrete-time design (unit disk + entry-wise
+    nonnegative A - L C, diagonal P: the paper's Corollary 1, LMIs (7)-(8)) is infeasible, as
+    printed (independent cvxpy formulation and the structural reason: L moves only the first
+    column, (A - L C)[:, 1] = [-0.7, -0.5] stays negative); the printed L gives lambda(D) =
+    {0, -0.5} and lambda(|D|) = {0, 0.5} exactly as printed, and the layer certifies Theorem
+    3's condition on Sigma = [[D+, D-], [D-, D+]] (nonnegative, spectral radius 0.5: disk 0.55
+    certified, 0.45 violated; P diagonal found by cvxpy). The change of coordinates:
+    ``PolytopicSystem.transformed(S)`` (x~ = S^-1 x, gain S^-1 L) turns D into [0 0; 1 -0.5]
+    within 2e-3 (computed gap 5.4e-4; rounding S at its 3rd decimal moves it by up to 1.6e-3,
+    measured by perturbation), which is the printed R with its diagonal entries swapped
+    (|difference| = 0.5): the printed R and S are not consistent with each other. Neither is
+    nonnegative: both have the entry -0.5 on the diagonal. They are Metzler (the continuous-
+    time cooperativity of Raissi et al. 2012) but not the "R in R_+" the discrete-time Theorem 2
+    asks, and none can be: by Perron-Frobenius a nonnegative matrix has its spectral radius
+    (here 0.5) as an eigenvalue, and {0, -0.5} does not contain 0.5. The layer's certificate
+    says so by name (Metzler with diag_shift: 'metzler diag' violated) while the continuous-
+    time Metzler check accepts R. The method itself works when its hypothesis holds: a gain
+    giving D the eigenvalues of the nonnegative R2 = [0.1 0.05; 0.05 0.2] (scipy place_poles)
+    and S2 = V_D V_R^-1 (eigenvector matrices) give S2^-1 D S2 = R2, which the same
+    certificate accepts (disk 0.25, P diagonal by cvxpy).
+
+    Catches: a discrete-time positivity check that looks only at off-diagonal entries (it
+    would accept the printed R), a transformation with S and S^-1 swapped (the transformed
+    matrix would be S D S^-1 = [-0.745 -0.390; 0.468 0.245], 0.53 away), a cooperative design
+    that returns a gain where none exists."""
+    from scipy.signal import place_poles
+
+    A = np.array([[0.3, -0.7], [0.6, -0.5]])
+    C = np.array([[1.0, 0.0]])
+    L = np.array([[0.3], [0.6]])
+    R_pr = np.array([[-0.5, 0.0], [1.0, 0.0]])
+    S_pr = np.array([[0.609, 0.814], [-1.162, 0.581]])
+    # printed facts about A
+    lam = np.linalg.eigvals(A)
+    assert np.all(np.abs(lam.imag) > 0.1) and np.abs(lam).max() < 1.0
+    assert np.abs(np.linalg.eigvals(np.abs(A))).max() > 1.0            # 1.0557
+    # no cooperative gain: the layer's design and an independent formulation agree
+    system = PolytopicSystem(A, C, time="discrete", name="Efimov 2013 IV.A")
+    with pytest.raises(InfeasibleDesign):
+        ObserverSynthesis(system, [InRegion(unit_disk(0.999)), Metzler(diag_shift=1e-9)],
+                          P="diagonal").solve()
+    assert not _cvxpy_positive_schur_design(A, C, 0.999)
+    # the printed gain: spectra of D and |D| as printed
+    D = A - L @ C
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(D).real), [-0.5, 0.0], atol=1e-12)
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(np.abs(D)).real), [0.0, 0.5],
+                               atol=1e-12)
+    # Theorem 3: Sigma = [[D+, D-], [D-, D+]] nonnegative and Schur, certified by the layer
+    Dp, Dm = np.maximum(D, 0.0), np.maximum(-D, 0.0)
+    Sigma = np.block([[Dp, Dm], [Dm, Dp]])
+    sig = PolytopicSystem(Sigma, np.zeros((1, 4)), time="discrete", name="Sigma")
+    P = _diagonal_schur_certificate(Sigma / 0.55)
+    zero = np.zeros((1, 4, 1))
+    ok = certify_observer(ObserverSynthesis(sig, [InRegion(unit_disk(0.55)),
+                                                  Metzler(diag_shift=1e-12)], P="diagonal"),
+                          P, zero)
+    assert ok.status == "certified", ok.reason()
+    slow = certify_observer(ObserverSynthesis(sig, [InRegion(unit_disk(0.45))], P="diagonal"),
+                            P, zero)
+    assert slow.status == "violated"
+    # Theorem 2: the printed change of coordinates, through the layer's transformation
+    tr = system.transformed(S_pr)
+    Lt = np.linalg.solve(S_pr, L)                                        # F = S^-1 L
+    Rt = tr.A[0] - Lt @ tr.C[0]
+    np.testing.assert_allclose(Rt, [[0.0, 0.0], [1.0, -0.5]], atol=2e-3)
+    assert np.abs(Rt - R_pr).max() == pytest.approx(0.5, abs=2e-3)       # printed R differs
+    assert np.abs(S_pr @ D @ np.linalg.inv(S_pr) - R_pr).max() > 0.4    # not S D S^-1 either
+    # neither R is nonnegative: discrete-time positivity rejects by name, Metzler accepts
+    for Rm in (R_pr, np.array([[0.0, 0.0], [1.0, -0.5]])):
+        rsys = PolytopicSystem(Rm, np.zeros((1, 2)), time="discrete", name="R")
+        Pr = 2.0 * np.eye(2)
+        pos = certify_observer(ObserverSynthesis(rsys, [Metzler(diag_shift=1e-12)],
+                                                 P="diagonal"), Pr, np.zeros((1, 2, 1)))
+        assert pos.status == "violated"
+        assert pos.lmi.worst().name.startswith("metzler diag"), pos.reason()
+        met = certify_observer(ObserverSynthesis(rsys, [Metzler()], P="diagonal"), Pr,
+                               np.zeros((1, 2, 1)))
+        assert met.lmi.ok, met.reason()
+    ev = np.linalg.eigvals(R_pr).real                 # Perron-Frobenius: rho not an eigenvalue
+    assert not np.any(np.isclose(ev, np.abs(ev).max()))
+    # where the hypothesis holds (real positive spectrum) the construction is certified:
+    # a nonnegative R2, a gain giving A - L2 C its eigenvalues, S2 = V_D V_R^-1 (Lemma 2)
+    R2 = np.array([[0.1, 0.05], [0.05, 0.2]])
+    lr, Vr = np.linalg.eigh(R2)
+    L2 = place_poles(A.T, C.T, lr).gain_matrix.T
+    ld, Vd = np.linalg.eig(A - L2 @ C)
+    Vd = Vd[:, np.argsort(ld.real)].real
+    S2 = Vd @ np.linalg.inv(Vr)
+    tr2 = system.transformed(S2)
+    Lt2 = np.linalg.solve(S2, L2)
+    np.testing.assert_allclose(tr2.A[0] - Lt2 @ tr2.C[0], R2, atol=1e-9)
+    P2 = _diagonal_schur_certificate(R2 / 0.25)
+    good = certify_observer(ObserverSynthesis(tr2, [InRegion(unit_disk(0.25)),
+                                                    Metzler(diag_shift=1e-12)], P="diagonal"),
+                            P2, Lt2[None])
+    assert good.status == "certified", good.reason()
