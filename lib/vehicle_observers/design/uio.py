@@ -42,7 +42,8 @@ class Decoupling:
     residual: float
 
     def gains(self, A, B, K, C):
-        """``N = T A - K C``, ``L = K + N H``, ``G = T B`` of the observer for gain ``K``."""
+        """``N = T A - K C``, ``L = K + N H``, ``G = T B`` of the observer for gain ``K``
+        (Darouach et al. 1994 eqs. (7)-(9); El Youssfi et al. 2020 (23b)-(23c))."""
         N = self.T @ A - K @ C
         return N, K + N @ self.H, self.T @ B
 
@@ -69,18 +70,51 @@ def decoupling(F, C, tol: float = 1e-9) -> Decoupling:
     return Decoupling(H, T, float(np.abs(T @ F).max()) if F.size else 0.0)
 
 
-def uio_system(system: PolytopicSystem, F) -> tuple[PolytopicSystem, Decoupling]:
-    """``(system with A_i -> T A_i and E_i -> T E_i, decoupling)``: designing the observer gain
-    ``K`` of this system with any constraint designs ``N_i = T A_i - K C`` of the UIO.
-    Needs a common ``C``; raises :class:`ObserverArgumentError` when the decoupled pair
-    ``(C, T A_i)`` is not detectable at some vertex."""
+def uio_system(system: PolytopicSystem, F, dec: Decoupling | None = None,
+               time_unit: float | None = None) -> tuple[PolytopicSystem, Decoupling]:
+    """``(error system, decoupling)``: the system on which the UIO gains ``K_i`` are designed
+    with any constraint of the layer (:mod:`~vehicle_observers.design.synthesis`,
+    :mod:`~vehicle_observers.design.slack`).
+
+    For ``x' = A_i x + B_i u + F d + E_i w``, ``y = C x + D_i w`` and the observer ``z' = N_i z
+    + G_i u + L_i y``, ``xhat = z + H y`` with (module docstring) ``N_i = T A_i - K_i C``,
+    ``L_i = K_i + N_i H``, ``G_i = T B_i``, ``eps = T x - z`` and ``e = x - xhat = eps - H D_i w``
+    obey::
+
+        eps' = (T A_i - K_i C) eps + (E~_i - K_i D~_i) w,   z_perf = H_p e = H_p eps + Dz~_i w
+
+        E~_i = T E_i - T A_i H D_i,   D~_i = (I - C H) D_i,   Dz~_i = Dz_i - H_p H D_i
+
+    (``H_p`` the performance output of ``system``). The returned system holds ``T A_i, C,
+    T B_i, E~_i, D~_i, H_p, Dz~_i``; its observer gain is ``K_i``. Needs a common ``C``;
+    ``dec``: a decoupling already computed (e.g. with another solution of ``H C F = F``),
+    else :func:`decoupling` of ``F``. ``time_unit`` ``tau`` [s]: the error system in that time
+    unit (``T A_i``, ``T B_i``, ``T E_i`` times ``tau`` before ``E~_i`` is formed, rate bounds
+    times ``tau``; gains designed on it are ``K_i = K~_i / tau``; cf.
+    :meth:`~vehicle_observers.design.system.PolytopicSystem.time_scaled`). Raises
+    :class:`ObserverArgumentError` naming the rank condition when ``F`` cannot be decoupled,
+    or the vertex and the mode when ``(C, T A_i)`` is not detectable."""
     if not system.common_C:
         raise ObserverArgumentError(f"uio_system: {system.name}: the UIO needs a common C")
-    dec = decoupling(F, system.C[0])
-    T = dec.T
-    s = PolytopicSystem(T @ system.A, system.C, system.B, T @ system.E, system.D, system.H,
-                        system.time, system.dt, system.rate_bounds,
-                        f"{system.name} (unknown input decoupled)")
+    C = system.C[0]
+    if dec is None:
+        dec = decoupling(F, C)
+    T, H = dec.T, dec.H
+    TA, TB, TE, rb = T @ system.A, T @ system.B, T @ system.E, system.rate_bounds
+    if time_unit is not None:
+        tau = float(time_unit)
+        if system.discrete or not (np.isfinite(tau) and tau > 0):
+            raise ObserverArgumentError(f"uio_system: {system.name}: time_unit needs a "
+                                        f"continuous-time system and a finite tau > 0 [s], got "
+                                        f"{time_unit!r}")
+        TA, TB, TE = TA * tau, TB * tau, TE * tau
+        rb = None if rb is None else rb * tau
+    D = system.D
+    E = TE - TA @ H @ D if np.any(D) else TE
+    Dt = (np.eye(C.shape[0]) - C @ H) @ D
+    Dz = system.Dz - system.H @ H @ D
+    s = PolytopicSystem(TA, system.C, TB, E, Dt, system.H, system.time, system.dt, rb,
+                        f"{system.name} (unknown input decoupled)", Dz)
     s.check_detectable()
     return s, dec
 
