@@ -335,6 +335,27 @@ class SlackSynthesis:
                                      lmi=cert.worst_name(), status=sol.status)
         return des
 
+    def minimise(self, backoff: float = 0.05, **kw):
+        """Smallest ``gamma`` of the free :class:`L2Gain`, then the design re-solved with
+        ``gamma`` fixed at ``optimum (1 + backoff)`` (a feasibility problem whose solution has a
+        real margin, where the optimum sits on the boundary of the feasible set). Returns an
+        :class:`~vehicle_observers.design.synthesis.OptimisedDesign` (``quantity="gamma"``,
+        the optimum, the certified design and its margin). ``kw``: thresholds of
+        :meth:`solve`."""
+        import dataclasses
+
+        from vehicle_observers.design.synthesis import OptimisedDesign, _backoff_ok
+
+        _backoff_ok(f"{self.name}: minimise", backoff)
+        free = [c for c in self.constraints if isinstance(c, L2Gain) and c.gamma is None]
+        if len(free) != 1:
+            raise ObserverArgumentError(f"{self.name}: minimise needs L2Gain(gamma=None)")
+        opt = self.solve("gamma", raise_on_violation=False, **kw)
+        value = opt.gamma * (1.0 + backoff)
+        fixed = dataclasses.replace(free[0], gamma=value)
+        syn = self.replace(constraints=[fixed if c is free[0] else c for c in self.constraints])
+        return OptimisedDesign("gamma", opt.gamma, value, backoff, syn.solve(**kw), opt)
+
     def best_mu(self, mus, objective: str | None = "gamma", **kw) -> SlackDesign:
         """Line search of the slack form over the Finsler scalars ``mus``: the design with
         the smallest ``gamma`` (the first feasible one without an objective) among the values
