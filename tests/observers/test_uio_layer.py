@@ -129,3 +129,28 @@ def test_rank_condition_failing_gives_one_clear_error(case):
     with pytest.raises(ObserverArgumentError) as exc:
         uio_system(uio.uio_plant(st), Mb)
     assert "rank(C F) = 0 != rank(F) = 1" in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_layer_fault_augmentation_equals_the_papers_augmented_model(case):
+    """design.uio.augment_faults (generic: actuator fault through Fa, sensor fault through
+    Fs, fault rate as a disturbance in units of its bound) on the physical two-state model,
+    normalised with X = S X_s and y = R y_s, gives El Youssfi's (14)-(15) as the model builds
+    them (Abar, Bbar, Cbar, Gam, D_w). Catches a fault entering the wrong block or the
+    fault-rate bound applied twice."""
+    from vehicle_observers.design.system import PolytopicSystem
+    from vehicle_observers.design.uio import augment_faults
+
+    model, st, _ = case
+    p = model.C.shape[0]
+    phys = PolytopicSystem(model.A, model.C, B=model.B, E=np.zeros((2, p)), D=model.D_w)
+    aug = augment_faults(phys, model.B, model.F_s, fault_rate=[model.scale_fdot])
+    S, Ri = np.diag(model.scale_x), np.linalg.inv(model.output_scale())
+    norm = aug.transformed(S)
+    Ab, Bb, Cb, _, Gam, Dw = model.augmented()
+    np.testing.assert_allclose(norm.A, Ab, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(norm.B, Bb, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(Ri @ norm.C[0], Cb, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(norm.E[0], np.hstack([Gam, np.zeros((3, p))]), atol=1e-15)
+    np.testing.assert_allclose(Ri @ norm.D[0], np.hstack([np.zeros((p, 1)), Dw]), atol=1e-15)
+    with pytest.raises(ObserverArgumentError, match="fault_rate"):
+        augment_faults(phys, model.B, model.F_s, fault_rate=[0.0])

@@ -16,6 +16,12 @@ takes the minimum-norm solution ``H = F (C F)^+``); ``N`` can then be made stabl
 :func:`uio_system` returns the polytopic system ``(T A_i, C)`` on which any constraint of
 :mod:`vehicle_observers.design.synthesis` designs ``K`` (``N_i = T A_i - K_i C``).
 
+The UIO error system carries the measurement noise twice (through ``L_i y`` and directly
+in the estimate ``z + H y``): :func:`uio_system` forms both, and :func:`augment_faults` adds
+actuator / sensor faults as states with a bounded derivative (fault estimation). The L2 /
+decay / pole-disk designs of that system, quadratic or slack-relaxed with a fuzzy Lyapunov
+matrix, are :class:`vehicle_observers.design.slack.SlackSynthesis`.
+
 The slack-variable (Finsler / de Oliveira) form of the decay LMI, used by relaxed
 (fuzzy-Lyapunov) UIO designs such as El Youssfi et al. (2020) Theorem 2, is
 :func:`slack_decay_lmi`; the quadratic form is :func:`quadratic_decay_lmi`. Both are
@@ -141,3 +147,52 @@ def slack_decay_lmi(P, G, W, A, C, alpha: float, mu: float):
     X = G @ A - W @ C
     return bmat([[2.0 * alpha * P + X + X.T, P - G + mu * X.T],
                  [P - G.T + mu * X, -mu * (G + G.T)]])
+
+
+def augment_faults(system: PolytopicSystem, Fa, Fs=None, fault_rate=None,
+                   name: str | None = None) -> PolytopicSystem:
+    """Fault-estimation augmentation: actuator faults ``f`` (nf,) entering the state through
+    ``Fa`` and the outputs through ``Fs`` become states with an unknown bounded derivative
+    (the PI / descriptor augmentation of fault-estimating observers, e.g. El Youssfi et al.
+    2020 (14)-(15); Gao & Ding, Automatica 43(5), 2007 for the descriptor form).
+
+    With ``X = [x; f]`` and the disturbance ``w_a = [f' / fault_rate; w]`` (the fault rate in
+    units of its bound ``fault_rate`` (nf,), default 1, then the system's own ``w``)::
+
+        X' = [[A_i, Fa_i], [0, 0]] X + [B_i; 0] u + [[0, E_i], [diag(fault_rate), 0]] w_a
+        y  = [C_i, Fs] X + [0, D_i] w_a,        z = blockdiag(H, I_nf) e_X + [[0, Dz_i], [0, 0]] w_a
+
+    so an observer of the augmented system estimates the faults with the state, and its L2
+    gain bounds the error from the fault rate and ``w``. ``Fa`` (n, nf) or (q, n, nf),
+    ``Fs`` (p, nf) (default 0: actuator faults only). Unknown inputs to decouple
+    (:func:`uio_system`) get a zero row appended: ``F_a = [F; 0]``."""
+    s = system
+    who = f"augment_faults {s.name!r}"
+    Fa = np.asarray(Fa, dtype=float)
+    Fa = np.broadcast_to(Fa, (s.q, *Fa.shape)) if Fa.ndim == 2 else Fa
+    if Fa.ndim != 3 or Fa.shape[:2] != (s.q, s.n) or not np.all(np.isfinite(Fa)):
+        raise ObserverArgumentError(f"{who}: Fa must be finite with shape ({s.n}, nf) or "
+                                    f"({s.q}, {s.n}, nf), got {np.shape(Fa)}")
+    nf = Fa.shape[2]
+    Fs = np.zeros((s.p, nf)) if Fs is None else np.atleast_2d(np.asarray(Fs, dtype=float))
+    if Fs.shape != (s.p, nf) or not np.all(np.isfinite(Fs)):
+        raise ObserverArgumentError(f"{who}: Fs must be finite with shape ({s.p}, {nf}), got "
+                                    f"{Fs.shape}")
+    rate = np.ones(nf) if fault_rate is None else np.asarray(fault_rate, dtype=float).ravel()
+    if rate.shape != (nf,) or not np.all(np.isfinite(rate) & (rate > 0)):
+        raise ObserverArgumentError(f"{who}: fault_rate must be {nf} finite values > 0, got "
+                                    f"{fault_rate!r}")
+    q, n, p, nw, nz = s.q, s.n, s.p, s.nw, s.H.shape[0]
+    A = np.zeros((q, n + nf, n + nf))
+    A[:, :n, :n], A[:, :n, n:] = s.A, Fa
+    B = np.concatenate([s.B, np.zeros((q, nf, s.B.shape[2]))], axis=1)
+    C = np.concatenate([s.C, np.broadcast_to(Fs, (q, p, nf))], axis=2)
+    E = np.zeros((q, n + nf, nf + nw))
+    E[:, :n, nf:], E[:, n:, :nf] = s.E, np.diag(rate)
+    D = np.concatenate([np.zeros((q, p, nf)), s.D], axis=2)
+    H = np.zeros((nz + nf, n + nf))
+    H[:nz, :n], H[nz:, n:] = s.H, np.eye(nf)
+    Dz = np.zeros((q, nz + nf, nf + nw))
+    Dz[:, :nz, nf:] = s.Dz
+    return PolytopicSystem(A, C, B, E, D, H, s.time, s.dt, s.rate_bounds,
+                           name or f"{s.name} (faults augmented)", Dz)
