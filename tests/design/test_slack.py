@@ -28,8 +28,9 @@ def test_slack_min_gamma_matches_an_independent_cvxpy_formulation():
     """El Youssfi 2020 Theorem 2 (two vertices, h_2' = -h_1', signs +-phi) written here
     directly in cvxpy: the layer's minimum gamma agrees to the solver's accuracy, and its
     design backed off by 5 % is certified from the data with every vertex's H-infinity norm
-    below its gamma. Catches a wrong block (a transposed slack term, a missing mu, the wrong
-    sign of P_1 - P_2, a disk in another form) in the layer."""
+    below its gamma. Catches a wrong block in the layer (checked by planting each: the
+    P_h' term left out, a wrong Finsler scalar in the L2 blocks, the slack disk posed in
+    the quadratic form)."""
     phi, mu, alpha, R = 2.0, 0.05, 0.2, 20.0
     s = _system(phi)
     syn = slack.SlackSynthesis(s, [L2Gain(alpha), SpectralDisk(R)], lyapunov="slack", mu=mu,
@@ -70,8 +71,10 @@ def test_slack_min_gamma_matches_an_independent_cvxpy_formulation():
 def test_slack_with_small_mu_contains_the_quadratic_design():
     """Remark 1 of El Youssfi 2020: with P_i = G = P the slack LMI is the quadratic one plus
     mu/2 [N B]^T P [N B], so for mu small the relaxed optimum is no worse than the quadratic
-    one (and with phi = 0 and one vertex not better either: same problem). Catches a slack
-    form that is not a relaxation."""
+    one, with two vertices (rate bound 0.5) and with one. Catches a slack form more
+    conservative than the quadratic one (Remark 1 broken); it does not pin the slack blocks
+    themselves (a sign-flipped P_i - G block passes here; the independent cvxpy formulation
+    pins them)."""
     cons = [L2Gain(0.2), SpectralDisk(20.0)]
     kw = {"raise_on_violation": False}
     s = _system(phi=0.5)
@@ -205,3 +208,24 @@ def test_bad_input_is_one_clear_error():
     with pytest.raises(ObserverArgumentError, match="gamma"):
         slack.SlackSynthesis(s, [Decay(0.1)]).solve("gamma")
     assert slack.sign_patterns(3) == [(1, 1), (1, -1), (-1, 1), (-1, -1)]
+
+
+def test_three_vertices_use_every_sign_pattern_of_the_rate_box():
+    """Three vertices: P_h' = sum_{k<3} h_k' (P_k - P_3) over the box |h_k'| <= phi_k gives
+    2^2 sign patterns per vertex, 12 decay LMIs named decay[i,++] ... decay[i,--], rebuilt
+    by the data certificate with the same names; the design is certified and every frozen
+    vertex decays at alpha. Catches a wrong enumeration of the patterns (a missing one
+    leaves a corner of the rate box unchecked)."""
+    A3 = np.array([[[0.0, 1.0], [-2.0, -1.0]], [[0.0, 1.0], [-5.0, -0.5]],
+                   [[0.5, 1.0], [-3.0, 0.0]]])
+    s = PolytopicSystem(A3, C1, rate_bounds=[1.0, 2.0, 3.0])
+    syn = slack.SlackSynthesis(s, [Decay(0.5), SpectralDisk(30.0)], lyapunov="slack", mu=0.02)
+    des = syn.solve()
+    names = [c.name for c in des.certificate.lmi.checks if c.name.startswith("decay")]
+    assert names == [f"decay[{i}," + sg + "]" for i in (1, 2, 3)
+                     for sg in ("++", "+-", "-+", "--")]
+    assert sorted(names) == sorted(c for c in syn.lmi_design().constraint_names
+                                   if c.startswith("decay"))
+    assert des.status == "certified"
+    for i in range(3):
+        assert np.linalg.eigvals(A3[i] - des.L[i] @ C1).real.max() < -0.5
