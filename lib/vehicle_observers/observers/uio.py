@@ -69,6 +69,13 @@ in the time unit ``1/radius``; (b): ``[[P_i, (G N_i)^T], [G N_i, G + G^T - P_i]]
 (de Oliveira's extended discrete-Lyapunov LMI; congruence with ``[I, -N^T]`` gives
 ``N^T P_i N < P_i``). All LMIs are solved in the time unit ``1/radius`` (conditioning).
 
+Both designs are calls of the synthesis layer: the error system (24) is
+:func:`vehicle_observers.design.uio.uio_system` of the augmented plant (:func:`uio_plant`,
+decoupling of ``st``, time unit ``1/radius``: :func:`error_system`), (a) and (b) are
+:class:`vehicle_observers.design.slack.SlackSynthesis` with ``lyapunov="quadratic"`` /
+``"slack"`` (:func:`quadratic_synthesis`, :func:`relaxed_synthesis`), and each result carries
+the layer's certificate rebuilt from the data (``UIOGains.data_certificate``).
+
 Arrays: time series (N,), states (N, 2), augmented (N, 3), memberships (N, 2).
 """
 
