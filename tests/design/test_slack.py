@@ -229,3 +229,24 @@ def test_three_vertices_use_every_sign_pattern_of_the_rate_box():
     assert des.status == "certified"
     for i in range(3):
         assert np.linalg.eigvals(A3[i] - des.L[i] @ C1).real.max() < -0.5
+
+
+def test_time_scaled_system_keeps_the_l2_gain():
+    """PolytopicSystem.time_scaled(tau): A, B, E times tau leave the L2 gain unchanged (the
+    time axis is stretched, the signals' energies scale alike), so the minimum gamma of the
+    scaled and unscaled problems agree, and the scaled gain maps back by K = K~ / tau with the
+    frozen error poles divided by tau. Catches E left unscaled (gamma would change by
+    sqrt(tau)) and a gain mapped back the wrong way."""
+    s = _system()
+    tau = 0.05
+    kw = {"raise_on_violation": False}
+    a = slack.SlackSynthesis(s, [L2Gain()], gains="common").solve("gamma", **kw)
+    st = s.time_scaled(tau)
+    b = slack.SlackSynthesis(st, [L2Gain()], gains="common").solve("gamma", **kw)
+    assert b.gamma == pytest.approx(a.gamma, rel=1e-4)
+    K = b.L[0] / tau
+    for i in range(2):
+        np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A_V[i] - K @ C1)),
+                                   np.sort_complex(np.linalg.eigvals(st.A[i] - b.L[0] @ C1))
+                                   / tau, rtol=1e-9)
+        assert hinf_norm(A_V[i] - K @ C1, E_V - K @ D_V, s.H) <= a.gamma * (1 + 1e-3)
