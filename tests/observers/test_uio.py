@@ -235,7 +235,7 @@ def test_design_errors(model, st):
     with pytest.raises(ObserverArgumentError, match="eps"):
         uio.design_relaxed(model, 0.5, 10.0, (1e-3,), st, eps=-1e-6)
     with pytest.raises(ValueError, match="two rules"):
-        uio.relaxed_builders({"TA": np.zeros((3, 3, 3)), "Cbar": np.zeros((2, 3))}, 0, 0, 1)
+        uio.relaxed_synthesis({"TA": np.zeros((3, 3, 3)), "Cbar": np.zeros((2, 3))}, 0, 0, 1)
     # alpha beyond the disk: no certified solution
     with pytest.raises(InfeasibleDesign):
         uio.design_quadratic(model, 250.0, st, radius=P.radius)

@@ -418,3 +418,115 @@ def certify_parameter_dependent(synthesis, P, L, M, c=None,
                                  f"{lim:g}")
     cert = Certificate(checks, min_relative_margin, max_condition)
     return ObserverCertificate(cert, np.array(poles) if poles else np.zeros((0, 0)), fails)
+
+
+# ---- slack / fuzzy-Lyapunov designs (vehicle_observers.design.slack) ------------------------
+def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
+                           min_relative_margin: float = MIN_RELATIVE_MARGIN,
+                           max_condition: float = MAX_CONDITION) -> ObserverCertificate:
+    """Certify a :class:`~vehicle_observers.design.slack.SlackSynthesis` design from the data:
+    the system's arrays ``A_i, C_i, E_i, D_i, H, Dz_i``, rate bounds ``phi_k``, the gains
+    ``L`` (r, n, p), ``P`` ((n, n) quadratic, (q, n, n) the fuzzy ``P_k``), the slack ``G``
+    (n, n) and the L2 bound ``gamma``. ``W_i = P L_i`` (or ``G L_i``) is recomputed here and
+    every LMI of :mod:`vehicle_observers.design.slack` rewritten in numpy (stacked over the
+    vertices, one batched eigenvalue call per constraint family), with the same names.
+
+    Checks from the same data, each necessary for the LMIs to mean what they say: the poles of
+    every frozen error system ``A_i - L_i C_i`` (``Re < -alpha`` of each decay / L2 constraint,
+    ``|lambda| < radius`` of each disk) and, with an L2 gain, the H-infinity norm of every
+    frozen ``(A_i - L_i C_i, E_i - L_i D_i, H, Dz_i)`` by Hamiltonian bisection (at most
+    ``gamma``)."""
+    from vehicle_observers.design.constraints import L2Gain, SpectralDisk
+
+    s = synthesis.system
+    q, n = s.q, s.n
+    slack = synthesis.lyapunov == "slack"
+    P = np.asarray(P, dtype=float)
+    L = np.asarray(L, dtype=float)
+    want_P = (q, n, n) if slack else (n, n)
+    if P.shape != want_P or L.shape != (synthesis.n_gains, n, s.p) or \
+            (slack and np.shape(G) != (n, n)):
+        raise ObserverArgumentError(f"certify_slack_observer: P must be {want_P}, L "
+                                    f"({synthesis.n_gains}, {n}, {s.p}) and G ({n}, {n}) in the "
+                                    f"slack form; got {P.shape}, {L.shape}, {np.shape(G)}")
+    jv = np.array([i if synthesis.gains == "pdc" else 0 for i in range(q)])
+    Lv = L[jv]                                               # gain acting at each vertex
+    Pv = (P + np.swapaxes(P, -1, -2)) / 2 if slack else np.broadcast_to((P + P.T) / 2, (q, n, n))
+    M = np.asarray(G, dtype=float) if slack else None        # the multiplier of W = M L
+    checks: list[ConstraintCheck] = []
+    lower = synthesis.P_lower
+    for name, Pk in zip(synthesis.positivity_names(), Pv if slack else Pv[:1]):
+        checks.append(check_matrix(name, Pk - (lower or 0.0) * np.eye(n), "pos"))
+        if lower is not None:
+            checks.append(check_matrix(f"{name.split('>')[0]}>0 (conditioning)", Pk, "pos"))
+    Ncl = s.A - Lv @ s.C                                     # (q, n, n) frozen error systems
+    Bcl = s.E - Lv @ s.D
+    if slack:
+        X = M[None] @ Ncl                                    # G A_i - W_i C_i = G N_i
+        Y = M[None] @ Bcl
+    else:
+        X = Pv @ Ncl
+        Y = Pv @ Bcl
+    phi = s.rate_bounds
+    poles = np.linalg.eigvals(Ncl)[:, None, :]              # (q, 1, n)
+    fails = []
+    hinf = {}
+    g2 = None if gamma is None else float(gamma) ** 2
+    for con in synthesis.constraints:
+        if isinstance(con, SpectralDisk):
+            R = con.radius
+            for i in range(q):
+                top = np.hstack([Pv[i], X[i].T / R])
+                bot = np.hstack([X[i] / R, (M + M.T - Pv[i]) if slack else Pv[i]])
+                checks.append(check_matrix(f"{con.label}[{i + 1}]", np.vstack([top, bot]),
+                                           "pos"))
+                bad = np.abs(poles[i, 0]) >= R
+                if bad.any():
+                    fails.append(f"{con.label}[{i + 1}]: pole {poles[i, 0][np.argmax(bad)]:.4g} "
+                                 f"of A_i - L_i C_i outside |lambda| < {R:g}")
+            continue
+        for i in range(q):
+            bad = poles[i, 0].real >= -con.alpha
+            if bad.any():
+                fails.append(f"{con.label}[{i + 1}]: pole {poles[i, 0][np.argmax(bad)]:.4g} of "
+                             f"A_i - L_i C_i violates the decay rate {con.alpha:g}")
+        signs = synthesis.signs if (slack and q > 1) else [()]
+        for i in range(q):
+            for sg in signs:
+                Pdot = sum((sk * phi[k] * (Pv[k] - Pv[q - 1]) for k, sk in enumerate(sg)),
+                           np.zeros((n, n)))
+                lead = Pdot + 2.0 * con.alpha * Pv[i] + X[i] + X[i].T
+                tag = f"[{i + 1},{''.join('+' if v > 0 else '-' for v in sg)}]" if sg \
+                    else f"[{i + 1}]"
+                if isinstance(con, L2Gain):
+                    if g2 is None:
+                        raise ObserverArgumentError("certify_slack_observer: the L2 constraint "
+                                                    "needs gamma")
+                    nw, nz = s.nw, s.H.shape[0]
+                    if slack:
+                        mu = synthesis.mu
+                        mat = np.block([
+                            [lead, Pv[i] - M + mu * X[i].T, Y[i], s.H.T],
+                            [Pv[i] - M.T + mu * X[i], -mu * (M + M.T), mu * Y[i],
+                             np.zeros((n, nz))],
+                            [Y[i].T, mu * Y[i].T, -g2 * np.eye(nw), s.Dz[i].T],
+                            [s.H, np.zeros((nz, n)), s.Dz[i], -np.eye(nz)]])
+                    else:
+                        mat = np.block([[lead, Y[i], s.H.T],
+                                        [Y[i].T, -g2 * np.eye(nw), s.Dz[i].T],
+                                        [s.H, s.Dz[i], -np.eye(nz)]])
+                elif slack:
+                    mu = synthesis.mu
+                    mat = np.block([[lead, Pv[i] - M + mu * X[i].T],
+                                    [Pv[i] - M.T + mu * X[i], -mu * (M + M.T)]])
+                else:
+                    mat = lead
+                checks.append(check_matrix(f"{con.label}{tag}", mat, "neg"))
+        if isinstance(con, L2Gain):
+            for i in range(q):
+                hinf[(i + 1, int(jv[i]) + 1)] = hinf_norm(Ncl[i], Bcl[i], s.H, s.Dz[i])
+    if not (poles.real < 0).all():
+        fails.append("stability: a frozen error system A_i - L_i C_i is not stable")
+    cert = Certificate(checks, min_relative_margin, max_condition)
+    has_l2 = any(isinstance(c, L2Gain) for c in synthesis.constraints)
+    return ObserverCertificate(cert, poles, fails, hinf, float(gamma) if has_l2 else None)

@@ -156,3 +156,57 @@ class OnVertices:
     @property
     def label(self) -> str:
         return self.constraint.label
+
+
+@dataclass(frozen=True)
+class L2Gain:
+    """L2 gain ``gamma`` from ``w`` to ``z = H e + Dz_i w`` with decay rate ``alpha`` [1/s],
+    in the squared (Schur) form of the bounded-real lemma (Boyd, El Ghaoui, Feron &
+    Balakrishnan, *Linear Matrix Inequalities in System and Control Theory*, SIAM 1994,
+    Sec. 6.3.2), as in the unknown-input observer designs of Darouach et al. and El Youssfi et
+    al. (2020) eq. (25) / Theorem 2. With ``g = gamma^2`` and ``V = e^T P e``:
+    ``V' + 2 alpha V + |z|^2 - g |w|^2 < 0``, i.e. (quadratic ``P``, gain ``K_j``)::
+
+        [[He(P A_i - W_j C_i) + 2 alpha P,  P E_i - W_j D_i,  H^T   ],
+         [*,                                -g I_nw,          Dz_i^T],
+         [H,                                Dz_i,             -I_nz ]] < 0,   W_j = P K_j
+
+    (the slack form is in :mod:`vehicle_observers.design.slack`). It implies the decay rate
+    ``alpha`` of ``e`` for ``w = 0`` and ``||z||_2 < gamma ||w||_2`` from ``e(0) = 0``.
+    ``gamma=None``: ``g`` is a variable (minimised). Used by
+    :class:`~vehicle_observers.design.slack.SlackSynthesis`, not by ``ObserverSynthesis``."""
+
+    alpha: float = 0.0
+    gamma: float | None = None
+    label: str = "l2"
+
+    def __post_init__(self):
+        object.__setattr__(self, "alpha", _num("L2Gain", "alpha", self.alpha, lo=0.0))
+        object.__setattr__(self, "gamma", _num("L2Gain", "gamma", self.gamma, lo=0.0,
+                                               strict=True, allow_none=True))
+
+
+@dataclass(frozen=True)
+class SpectralDisk:
+    """Poles of every frozen error system ``A_i - K_i C_i`` in the disk ``|lambda| < radius``
+    [1/s] (e.g. so that an explicit integration step ``dt`` sees ``|lambda| dt`` bounded), by
+    the Stein inequality of ``(A_i - K_i C_i) / radius``: quadratic ``P``::
+
+        [[P, (P A_i - W_i C_i)^T / radius], [(P A_i - W_i C_i) / radius, P]] > 0
+
+    slack form (de Oliveira, Bernussou & Geromel, Systems & Control Letters 37, 1999, Thm 1)::
+
+        [[P_i, (G A_i - W_i C_i)^T / radius], [(G A_i - W_i C_i) / radius, G + G^T - P_i]] > 0
+
+    Used by :class:`~vehicle_observers.design.slack.SlackSynthesis`."""
+
+    radius: float
+    label: str = "disk"
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", _num("SpectralDisk", "radius", self.radius, lo=0.0,
+                                                strict=True))
+
+
+#: the constraints of :class:`~vehicle_observers.design.slack.SlackSynthesis`
+SLACK_CONSTRAINTS = (L2Gain, SpectralDisk)

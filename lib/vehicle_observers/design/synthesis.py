@@ -284,6 +284,11 @@ class ObserverSynthesis:
         if any(isinstance(c, (BoundedReal, InputToState)) for c in cons) and system.nw == 0:
             raise ObserverArgumentError(f"{who}: a bounded-real / input-to-state constraint "
                                         "needs a disturbance matrix E in the system")
+        if any(isinstance(c, (BoundedReal, InputToState)) for c in cons) and \
+                system.has_feedthrough:
+            raise ObserverArgumentError(f"{who}: the system's performance output reads the "
+                                        "disturbance (Dz != 0); use constraints.L2Gain with "
+                                        "design.slack.SlackSynthesis")
         self.system, self.constraints, self.gains, self.n_gains = system, cons, gains, r
         self.relaxation, self.P_kind, self.P_lower, self.P_upper = relaxation, P, P_lower, P_upper
         self.gain_bound, self.eps, self.order, self.name = gain_bound, eps, order, name

@@ -8,7 +8,9 @@ A polytopic (LPV, or TS with the convex memberships ``h_i >= 0``, ``sum h_i = 1`
 ``q`` vertices: ``A`` (q, n, n), ``B`` (q, n, m), ``C`` (q, p, n), disturbance ``E``
 (q, n, nw), measurement feedthrough of the disturbance ``D`` (q, p, nw); a matrix common to all
 vertices may be given once (2-D). ``H`` (nz, n) selects the estimation error whose gain from
-``w`` is bounded (default ``I_n``: the whole error). ``rate_bounds`` (q,) bound
+``w`` is bounded (default ``I_n``: the whole error), ``Dz`` (q, nz, nw) its direct feedthrough
+``z = H e + Dz w`` (default 0; an unknown-input observer's estimate ``z + H_uio y`` reads the
+measurement noise directly). ``rate_bounds`` (q,) bound
 ``|dh_i/dt|`` (used by a parameter-dependent Lyapunov matrix).
 
 Everything an LMI design or its certificate needs is read from this object, never from user
@@ -68,6 +70,8 @@ class PolytopicSystem:
     dt : sample period [s] of a discrete-time system (decay rates in 1/s use it), default 1.
     rate_bounds : (q,) bounds ``|dh_i/dt| <= phi_i`` [1/s] of the memberships, or ``None``.
     name : used in every error message.
+    Dz : (q, nz, nw) or (nz, nw) feedthrough of the disturbance to the performance output
+        ``z = H e + Dz w`` (default 0).
     """
 
     A: np.ndarray
@@ -80,6 +84,7 @@ class PolytopicSystem:
     dt: float = 1.0
     rate_bounds: np.ndarray | None = None
     name: str = "system"
+    Dz: np.ndarray | None = None
     meta: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self):
@@ -97,6 +102,8 @@ class PolytopicSystem:
         nw = E.shape[2]
         D = np.zeros((q, p, nw)) if self.D is None else _stack(who, "D", self.D, q, p, nw)
         H = np.eye(n) if self.H is None else _stack(who, "H", self.H, None, None, n)[0]
+        Dz = np.zeros((q, H.shape[0], nw)) if self.Dz is None else \
+            _stack(who, "Dz", self.Dz, q, H.shape[0], nw)
         if self.time not in TIMES:
             raise ObserverArgumentError(f"{who}: time must be one of {TIMES}, got {self.time!r}")
         dt = float(self.dt)
@@ -109,7 +116,7 @@ class PolytopicSystem:
                 raise ObserverArgumentError(f"{who}: rate_bounds must be {q} finite values >= 0 "
                                             f"(one per vertex), got {self.rate_bounds!r}")
         for k, v in (("A", A), ("B", B), ("C", C), ("D", D), ("E", E), ("H", H), ("dt", dt),
-                     ("rate_bounds", rb)):
+                     ("rate_bounds", rb), ("Dz", Dz)):
             object.__setattr__(self, k, v)
 
     # ---- sizes ------------------------------------------------------------------------
@@ -177,16 +184,34 @@ class PolytopicSystem:
         Si = np.linalg.inv(S)
         return PolytopicSystem(Si @ self.A @ S, self.C @ S, Si @ self.B, Si @ self.E, self.D,
                                self.H @ S, self.time, self.dt, self.rate_bounds,
-                               f"{self.name} (transformed)")
+                               f"{self.name} (transformed)", self.Dz)
 
     def with_A(self, A, name: str | None = None) -> "PolytopicSystem":
         """A copy with other state matrices (e.g. ``T A_i`` of an unknown-input observer)."""
         return PolytopicSystem(A, self.C, self.B, self.E, self.D, self.H, self.time, self.dt,
-                               self.rate_bounds, name or self.name)
+                               self.rate_bounds, name or self.name, self.Dz)
 
     def error_system(self, i: int, L, j: int | None = None):
         """``(A_cl, B_cl, C_cl, D_cl)`` of the estimation error at vertex pair ``(i, j)``:
-        ``e' = (A_i - L C_i) e + (E_i - L D_i) w``, ``z = H e`` (``L`` (n, p))."""
+        ``e' = (A_i - L C_i) e + (E_i - L D_i) w``, ``z = H e + Dz_i w`` (``L`` (n, p))."""
         L = np.asarray(L, dtype=float)
-        return (self.A[i] - L @ self.C[i], self.E[i] - L @ self.D[i], self.H,
-                np.zeros((self.H.shape[0], self.nw)))
+        return (self.A[i] - L @ self.C[i], self.E[i] - L @ self.D[i], self.H, self.Dz[i].copy())
+
+    @property
+    def has_feedthrough(self) -> bool:
+        """``Dz`` is not zero (the performance output reads the disturbance directly)."""
+        return bool(np.any(self.Dz))
+
+    def time_scaled(self, tau: float) -> "PolytopicSystem":
+        """The same continuous-time system in the time unit ``tau`` [s]: ``A, B, E`` times
+        ``tau`` (``C, D, H, Dz`` unchanged, rate bounds times ``tau``). An observer gain ``K~``
+        designed on it is ``K = K~ / tau`` in seconds; decay rates scale by ``tau``, a pole
+        radius by ``tau``, the L2 gain is unchanged. Used to bring fast dynamics to O(1) before
+        an LMI solver sees them (conditioning)."""
+        tau = float(tau)
+        if self.discrete or not (np.isfinite(tau) and tau > 0):
+            raise ObserverArgumentError(f"{self.name}: time_scaled needs a continuous-time system "
+                                        f"and a finite tau > 0 [s], got {self.time}, {tau!r}")
+        rb = None if self.rate_bounds is None else self.rate_bounds * tau
+        return PolytopicSystem(self.A * tau, self.C, self.B * tau, self.E * tau, self.D, self.H,
+                               self.time, self.dt, rb, self.name, self.Dz)

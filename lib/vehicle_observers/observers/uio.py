@@ -69,11 +69,19 @@ in the time unit ``1/radius``; (b): ``[[P_i, (G N_i)^T], [G N_i, G + G^T - P_i]]
 (de Oliveira's extended discrete-Lyapunov LMI; congruence with ``[I, -N^T]`` gives
 ``N^T P_i N < P_i``). All LMIs are solved in the time unit ``1/radius`` (conditioning).
 
+Both designs are calls of the synthesis layer: the error system (24) is
+:func:`vehicle_observers.design.uio.uio_system` of the augmented plant (:func:`uio_plant`,
+decoupling of ``st``, time unit ``1/radius``: :func:`error_system`), (a) and (b) are
+:class:`vehicle_observers.design.slack.SlackSynthesis` with ``lyapunov="quadratic"`` /
+``"slack"`` (:func:`quadratic_synthesis`, :func:`relaxed_synthesis`), and each result carries
+the layer's certificate rebuilt from the data (``UIOGains.data_certificate``).
+
 Arrays: time series (N,), states (N, 2), augmented (N, 3), memberships (N, 2).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,7 +89,11 @@ from numba import njit
 
 from vehicle_observers.core.errors import InfeasibleDesign, ObserverArgumentError
 from vehicle_observers.core.protocol import Trajectory
-from vehicle_observers.design.lmi import LMIDesign, LMISolution, bmat
+from vehicle_observers.design.constraints import L2Gain, SpectralDisk
+from vehicle_observers.design.lmi import LMISolution
+from vehicle_observers.design.slack import SlackDesign, SlackSynthesis
+from vehicle_observers.design.system import PolytopicSystem
+from vehicle_observers.design.uio import Decoupling, uio_system
 from vehicle_observers.models.uncertain_lateral import UncertainLateralTS, gbell_derivative
 from vehicle_observers.observers.fixed_step import FixedStepObserver, positive, row_names
 
@@ -160,7 +172,10 @@ class UIOGains:
     """Observer (20) in normalised coordinates plus its certificate.
 
     N (r,3,3), G (r,3,1), L (r,3,p), H (3,p), K (r,3,p); S (3,) and R (p,) scales (physical
-    ``X = S * X_s``, ``y_s = y / R``). gamma: certified L2 gain; design: "a" or "b".
+    ``X = S * X_s``, ``y_s = y / R``). gamma: certified L2 gain; design: "a" or "b";
+    T (3,3) ``I - H Cbar`` of (23a); layer: the synthesis layer's
+    :class:`~vehicle_observers.design.slack.SlackDesign` (its ``P``, slack ``G``, gains in the
+    time unit ``1 / radius`` and data certificate).
     """
 
     design: str
@@ -177,11 +192,22 @@ class UIOGains:
     mu: float | None
     radius: float
     solution: LMISolution
+    T: np.ndarray | None = None
+    layer: SlackDesign | None = None
 
     @property
     def certificate(self):
-        """The LMI certificate (:class:`vehicle_observers.design.lmi.Certificate`)."""
+        """The LMI certificate of the builders (:class:`vehicle_observers.design.lmi.Certificate`,
+        time-scaled units)."""
         return self.solution.certificate
+
+    @property
+    def data_certificate(self):
+        """The certificate rebuilt from the data by the layer
+        (:func:`vehicle_observers.design.certify.certify_slack_observer`: every LMI from the
+        decoupled error system's arrays and the gains, the poles and the H-infinity norm of
+        each frozen rule; time-scaled units)."""
+        return None if self.layer is None else self.layer.certificate
 
     @property
     def min_margin(self) -> float:
@@ -201,31 +227,63 @@ def _check_design_args(who: str, alpha, radius, eps) -> None:
     positive(who, "eps", eps)
 
 
-def _error_input(st, i, W, PorG):
-    """``PorG @ B_i`` with ``B_i = [T Gam, -L_i Dw]``, L_i = K_i (I - Cbar H) + T Abar_i H,
-    written with ``W = PorG K_i`` (linear in the decision variables)."""
+def uio_plant(st: dict) -> PolytopicSystem:
+    """The normalised augmented system (14)-(15) as data of the synthesis layer:
+    ``X' = Abar_i X + Bbar_i u + Mbar d + Gam f'``, ``y = Cbar X + D_w w`` with the
+    performance input ``omega = [f' / s_fd; w]`` (fault rate in units of its bound, unit
+    measurement noise): ``E = [Gam, 0]``, ``D = [0, D_w]``, performance output the whole error
+    ``e`` (``H = I``, ``Dz = 0``). ``st``: :func:`structure`."""
     p = st["Cbar"].shape[0]
-    IcH = np.eye(p) - st["Cbar"] @ st["H"]
-    TAH = st["TA"][i] @ st["H"]
-    col1 = PorG @ st["TG"]
-    col2 = -(W @ IcH + PorG @ TAH) @ st["Dw"]
-    return bmat([[col1, col2]])
+    E = np.hstack([st["Gam"], np.zeros((3, p))])
+    D = np.hstack([np.zeros((p, 1)), st["Dw"]])
+    return PolytopicSystem(st["Abar"], st["Cbar"], B=st["Bbar"], E=E, D=D,
+                           name="El Youssfi 2020 (14)-(15)")
 
 
-def _De(st):
-    p = st["Cbar"].shape[0]
-    return np.hstack([np.zeros((3, 1)), -st["H"] @ st["Dw"]]).reshape(3, 1 + p)
+def error_system(st: dict, radius: float, phi: float | None = None) -> PolytopicSystem:
+    """The error system (24) on which the gains ``K_i`` are designed, from the layer
+    (:func:`vehicle_observers.design.uio.uio_system` with the decoupling ``H, T`` of (23a)
+    in ``st``): ``eps' = sum h_i ((T Abar_i - K_i Cbar) eps + (E~_i - K_i D~) omega)``,
+    ``e = eps + Dz~ omega`` with ``E~_i = [T Gam, -T Abar_i H D_w]``, ``D~ = [0, (I - Cbar H)
+    D_w]``, ``Dz~ = [0, -H D_w]``, in the time unit ``1 / radius`` [s] (conditioning; the L2
+    gain does not change). ``phi`` [1/s]: the Assumption 2 bound ``|h_i'| <= phi`` (rate
+    bounds of both rules)."""
+    plant = uio_plant(st)
+    if phi is not None:
+        plant = dataclasses.replace(plant, rate_bounds=np.array([phi, phi], dtype=float))
+    dec = Decoupling(st["H"], st["T"], float(np.abs(st["T"] @ st["Mbar"]).max()))
+    return uio_system(plant, st["Mbar"], dec, time_unit=1.0 / radius)[0]
 
 
-def _time_scaled(st, radius):
-    """Copy of ``st`` in the time unit ``tau = 1/radius`` (dynamics O(1), better conditioned
-    LMIs; the L2 gain is invariant under time scaling). Gains: ``K = K_tau / tau``."""
+def quadratic_synthesis(st: dict, alpha: float, radius: float = 200.0, eps: float = 1e-6,
+                        disk: bool = True) -> SlackSynthesis:
+    """Design (a) as a call of the synthesis layer: :func:`error_system`, one gain per rule
+    (``gains="pdc"``), common quadratic ``P`` (``lyapunov="quadratic"``),
+    :class:`~vehicle_observers.design.constraints.L2Gain` with decay ``alpha`` (LMI ``Phi[i]``,
+    free ``g = gamma^2``) and, with ``disk``, the pole disk ``|lambda| < radius``
+    (:class:`~vehicle_observers.design.constraints.SpectralDisk`, ``disk[i]``)."""
     tau = 1.0 / radius
-    out = dict(st)
-    out["TA"] = st["TA"] * tau
-    out["TG"] = st["TG"] * tau
-    out["tau"] = tau
-    return out
+    cons = [L2Gain(alpha * tau, label="Phi")] + ([SpectralDisk(1.0)] if disk else [])
+    return SlackSynthesis(error_system(st, radius), cons, gains="pdc", lyapunov="quadratic",
+                          eps=eps, order="vertex",
+                          name=f"UIO (a) quadratic [22], alpha={alpha:g}")
+
+
+def relaxed_synthesis(st: dict, alpha: float, phi: float, mu: float, radius: float = 200.0,
+                      eps: float = 1e-6, disk: bool = True) -> SlackSynthesis:
+    """Design (b), Theorem 2, as a call of the synthesis layer: :func:`error_system` with the
+    rate bounds ``phi`` [1/s], one gain per rule, fuzzy Lyapunov matrices ``P_1, P_2`` and the
+    Finsler slack ``G`` with the scalar ``mu`` [s] (``lyapunov="slack"``),
+    :class:`~vehicle_observers.design.constraints.L2Gain` (``Ups[i,+/-]``) and the pole disk in
+    de Oliveira's extended form (``disk[i]``)."""
+    if len(st["TA"]) != 2:
+        raise ValueError(f"the relaxed design handles two rules (h_2' = -h_1'), got "
+                         f"{len(st['TA'])}")
+    tau = 1.0 / radius
+    cons = [L2Gain(alpha * tau, label="Ups")] + ([SpectralDisk(1.0)] if disk else [])
+    return SlackSynthesis(error_system(st, radius, phi), cons, gains="pdc", lyapunov="slack",
+                          mu=mu / tau, eps=eps, order="constraint",
+                          name=f"UIO (b) relaxed Thm 2, alpha={alpha:g}, phi={phi:g}")
 
 
 def design_quadratic(model: UncertainLateralTS, alpha: float, st: dict | None = None,
@@ -233,95 +291,16 @@ def design_quadratic(model: UncertainLateralTS, alpha: float, st: dict | None = 
     """Design (a), the non-relaxed conditions of [22]: common quadratic Lyapunov matrix.
 
     Minimises ``g = gamma^2`` s.t. ``P > 0`` and, per rule i,
-    ``[[2 alpha P + He(P T Abar_i - W_i Cbar), P B_i, I], [*, -g I, D_e^T], [*, *, -I]] < 0``.
+    ``[[2 alpha P + He(P T Abar_i - W_i Cbar), P B_i, I], [*, -g I, D_e^T], [*, *, -I]] < 0``
+    (:func:`quadratic_synthesis`, a call of the layer's
+    :class:`~vehicle_observers.design.slack.SlackSynthesis`).
     ``disk=False`` drops the pole disk (the paper's conditions alone; ``radius`` then only sets
-    the time unit). Raises InfeasibleDesign / CertificationError (lmi.LMIDesign).
+    the time unit). Raises InfeasibleDesign / CertificationError (either certificate).
     """
     _check_design_args("design_quadratic", alpha, radius, eps)
     st0 = structure(model) if st is None else st
-    st = _time_scaled(st0, radius)
-    tau = st["tau"]
-    a_s = alpha * tau
-    r, p = len(st["TA"]), st["Cbar"].shape[0]
-    nw = 1 + p
-    De = _De(st)
-    d = LMIDesign(f"UIO (a) quadratic [22], alpha={alpha:g}", eps=eps)
-    d.symmetric("P", 3)
-    d.scalar("g")
-    for i in range(r):
-        d.matrix(f"W{i}", (3, p))
-    d.positive("P>0", lambda V: V.P)
-    for i in range(r):
-        def build(V, i=i):
-            P, W = V.P, V[f"W{i}"]
-            PN = P @ st["TA"][i] - W @ st["Cbar"]
-            PB = _error_input(st, i, W, P)
-            return bmat([[2 * a_s * P + PN + PN.T, PB, np.eye(3)],
-                         [PB.T, -V.g * np.eye(nw), De.T],
-                         [np.eye(3), De, -np.eye(3)]])
-        d.negative(f"Phi[{i + 1}]", build)
-
-        def disk_lmi(V, i=i):
-            PN = V.P @ st["TA"][i] - V[f"W{i}"] @ st["Cbar"]
-            return bmat([[V.P, PN.T], [PN, V.P]])
-        if disk:
-            d.positive(f"disk[{i + 1}]", disk_lmi)
-    sol = d.solve(objective=lambda V: V.g)
-    P = sol["P"]
-    K = np.array([np.linalg.solve(P, sol[f"W{i}"]) for i in range(r)]) / tau
-    return _gains("a", st0, K, sol, alpha, None, None, radius)
-
-
-def relaxed_builders(st, alpha, phi, mu):
-    """Builders of Theorem 2 (b) for rule i and sign s (see module docstring)."""
-    r, p = len(st["TA"]), st["Cbar"].shape[0]
-    if r != 2:
-        raise ValueError(f"the relaxed design handles two rules (h_2' = -h_1'), got {r}")
-    nw = 1 + p
-    De = _De(st)
-
-    def build(V, i, s):
-        Pi, G, W = V[f"P{i}"], V.G, V[f"W{i}"]
-        GN = G @ st["TA"][i] - W @ st["Cbar"]
-        GB = _error_input(st, i, W, G)
-        Pdot = s * phi * (V.P0 - V.P1)
-        Z3 = np.zeros((3, 3))
-        return bmat([[Pdot + 2 * alpha * Pi + GN + GN.T, Pi - G + mu * GN.T, GB, np.eye(3)],
-                     [Pi - G.T + mu * GN, -mu * (G + G.T), mu * GB, Z3],
-                     [GB.T, mu * GB.T, -V.g * np.eye(nw), De.T],
-                     [np.eye(3), Z3, De, -np.eye(3)]])
-
-    return build
-
-
-def _relaxed_design(st0, alpha, phi, mu, eps, radius=200.0, disk=True):
-    """LMIDesign of Theorem 2 in the time unit 1/radius (alpha, phi [1/s], mu [s])."""
-    st = _time_scaled(st0, radius)
-    tau = st["tau"]
-    r, p = len(st["TA"]), st["Cbar"].shape[0]
-    build = relaxed_builders(st, alpha * tau, phi * tau, mu / tau)
-    d = LMIDesign(f"UIO (b) relaxed Thm 2, alpha={alpha:g}, phi={phi:g}, mu={mu:g}", eps=eps)
-    for i in range(r):
-        d.symmetric(f"P{i}", 3)
-    d.matrix("G", (3, 3))
-    d.scalar("g")
-    for i in range(r):
-        d.matrix(f"W{i}", (3, p))
-    for i in range(r):
-        d.positive(f"P{i + 1}>0", lambda V, i=i: V[f"P{i}"])
-    for i in range(r):
-        for s in (1, -1):
-            d.negative(f"Ups[{i + 1},{'+' if s > 0 else '-'}]",
-                       lambda V, i=i, s=s: build(V, i, s))
-
-    def disk_lmi(V, i):
-        GN = V.G @ st["TA"][i] - V[f"W{i}"] @ st["Cbar"]
-        Pi = V[f"P{i}"]
-        return bmat([[Pi, GN.T], [GN, V.G + V.G.T - Pi]])
-    if disk:
-        for i in range(r):
-            d.positive(f"disk[{i + 1}]", lambda V, i=i: disk_lmi(V, i))
-    return d
+    des = quadratic_synthesis(st0, alpha, radius, eps, disk).solve("gamma")
+    return _gains("a", st0, des.L / (1.0 / radius), des, alpha, None, None, radius)
 
 
 def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6, 1e-3, 1e-2),
@@ -331,8 +310,9 @@ def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6
 
     ``mu`` may be a sequence: the LMIs are solved for each value and the lowest certified
     gamma kept (Remark 2: mu is "chosen ... in such a way that the conditions are
-    feasible"). ``disk=False``: Theorem 2 alone, without the pole disk. Raises
-    InfeasibleDesign if no mu works.
+    feasible"; :meth:`~vehicle_observers.design.slack.SlackSynthesis.best_mu`).
+    ``disk=False``: Theorem 2 alone, without the pole disk. Raises InfeasibleDesign if no mu
+    works.
     """
     who = "design_relaxed"
     _check_design_args(who, alpha, radius, eps)
@@ -341,33 +321,21 @@ def design_relaxed(model: UncertainLateralTS, alpha: float, phi: float, mu=(1e-6
         raise ObserverArgumentError(f"{who}: need mu > 0 (Finsler scalar [s]), got mu={mus}")
     positive(who, "phi", phi, allow_zero=True)
     st = structure(model) if st is None else st
-    best, errs = None, []
-    for m_ in mus:
-        d = _relaxed_design(st, alpha, phi, float(m_), eps, radius, disk)
-        try:
-            sol = d.solve(objective=lambda V: V.g)
-        except InfeasibleDesign as exc:
-            errs.append(f"mu={m_:g}: {exc}")
-            continue
-        if best is None or sol.objective < best[0].objective:
-            best = (sol, float(m_))
-    if best is None:
-        raise InfeasibleDesign(f"UIO (b) relaxed, alpha={alpha:g}, phi={phi:g}: infeasible for "
-                               f"every mu; " + " | ".join(errs))
-    sol, m_ = best
-    K = np.array([np.linalg.solve(sol["G"], sol[f"W{i}"]) for i in range(len(st["TA"]))])
-    K = K * radius
-    return _gains("b", st, K, sol, alpha, phi, m_, radius)
+    syn = relaxed_synthesis(st, alpha, phi, float(mus[0]), radius, eps, disk)
+    tau = 1.0 / radius
+    des = syn.best_mu(mus / tau)
+    m_ = float(mus[int(np.argmin(np.abs(mus / tau - des.synthesis.mu)))])
+    return _gains("b", st, des.L * radius, des, alpha, phi, m_, radius)
 
 
-def _gains(kind, st, K, sol, alpha, phi, mu, radius):
+def _gains(kind, st, K, des, alpha, phi, mu, radius):
     r = len(st["TA"])
     N = np.array([st["TA"][i] - K[i] @ st["Cbar"] for i in range(r)])
     L = np.array([K[i] + N[i] @ st["H"] for i in range(r)])
     G = np.array([st["T"] @ B for B in st["Bbar"]])
     S, R = st["_scales"]
-    return UIOGains(kind, N, G, L, st["H"], K, S, R, float(np.sqrt(sol["g"])), alpha, phi, mu,
-                    radius, sol)
+    return UIOGains(kind, N, G, L, st["H"], K, S, R, float(des.gamma), alpha, phi, mu,
+                    radius, des.solution, st["T"], des)
 
 
 def structure(model: UncertainLateralTS, Y=None) -> dict:
@@ -397,8 +365,9 @@ def relaxed_from_quadratic(gains_a: UIOGains, slack: float = 1e-3, n_rules: int 
 def relaxed_certificate(st, values: dict, alpha: float, phi: float, mu: float,
                         radius: float = 200.0, disk: bool = True):
     """Independent eigenvalue certificate of Theorem 2's LMIs at given numeric values
-    (time-scaled variables, as stored in an :class:`LMISolution`)."""
-    return _relaxed_design(st, alpha, phi, mu, 1e-7, radius, disk).certify(values)
+    (time-scaled variables, as stored in an :class:`LMISolution`): the layer's builders
+    (:func:`relaxed_synthesis`) re-evaluated in numpy."""
+    return relaxed_synthesis(st, alpha, phi, mu, radius, 1e-7, disk).lmi_design().certify(values)
 
 
 # ------------------------------------------------------------------- feasibility sweep --

@@ -140,15 +140,20 @@ def designs(model: ul.UncertainLateralTS, st: dict, alpha: float, phi: float, mu
 
 
 def design_summary(*gains: uio.UIOGains) -> str:
-    """Solver summary and observer poles [1/s] of each design, as text."""
-    return "\n".join(f"{g.solution.summary()} \npoles: {np.round(g.poles, 2).tolist()}"
-                     for g in gains)
+    """Solver summary, observer poles [1/s] and the layer's data certificate (status, each
+    rule's H-infinity norm of the decoupled error system against gamma) of each design."""
+    def data(g):
+        c = g.data_certificate
+        hinf = ", ".join(f"{v:.4f}" for v in c.hinf.values())
+        return f"data certificate: {c.status}; rule H-inf norms {hinf} <= gamma {g.gamma:.4f}"
+    return "\n".join(f"{g.solution.summary()} \npoles: {np.round(g.poles, 2).tolist()}\n"
+                     f"{data(g)}" for g in gains)
 
 
 def design_metrics(ga: uio.UIOGains, gb: uio.UIOGains) -> dict:
     """Certified L2 gains gamma and their ratio, line-searched ``mu`` [s], certificate
-    margins (time-scaled units) and status, slowest pole [1/s] and largest gain entry of (a),
-    (b)."""
+    margins (time-scaled units) and status (the builders' and the layer's data certificate),
+    slowest pole [1/s] and largest gain entry of (a), (b)."""
     out = {"design_alpha": (ga.alpha, "1/s", "decay rate of both simulated designs"),
            "gamma_a": (ga.gamma, "", f"design (a) [22], alpha = {ga.alpha:g} 1/s"),
            "gamma_b": (gb.gamma, "", f"design (b) Theorem 2, phi = {gb.phi:.3g} 1/s"),
@@ -158,6 +163,10 @@ def design_metrics(ga: uio.UIOGains, gb: uio.UIOGains) -> dict:
         out[f"margin_{k}"] = (g.min_margin, "", "min certified LMI margin (time-scaled units)")
         out[f"lmi_status_{k}"] = (g.solution.certificate.status, "",
                                   "LMI certificate: certified / inconclusive / violated")
+        out[f"data_status_{k}"] = (g.data_certificate.status, "",
+                                   "certificate rebuilt from the data by the synthesis layer "
+                                   "(every LMI from the decoupled error system and the gains, "
+                                   "poles, each rule's H-infinity norm <= gamma)")
         out[f"slowest_pole_{k}"] = (float(-g.poles.real.max()), "1/s",
                                     f"slowest observer pole of ({k}), -max Re lambda(N_i)")
         out[f"gain_norm_{k}"] = (float(np.abs(g.L).max()), "", "max |L_i| entry (normalised)")
