@@ -162,7 +162,8 @@ def parametric_map(points: int = 1000) -> dict:
     st = m["status"]
     return {"points": int(st.size), "certified": int((st == "certified").sum()),
             "infeasible": int((st == "infeasible").sum()), "total_s": m["total_s"],
-            "solver_s": m["solver_s"], "solver_wall_s": m["solver_wall_s"], "build_s": m["build_s"], "solve_s": m["solve_s"],
+            "solver_s": m["solver_s"], "solver_wall_s": m["solver_wall_s"],
+            "build_s": m["build_s"], "solve_s": m["solve_s"],
             "certify_s": m["certify_s"], "ratio_total_solver": m["total_s"] / m["solver_s"],
             "ratio_total_solver_wall": m["total_s"] / m["solver_wall_s"]}
 
