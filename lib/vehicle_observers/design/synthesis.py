@@ -18,6 +18,11 @@ Observer ``xhat' = A(h) xhat + B(h) u + L(h) (y - C(h) xhat)`` for the system of
 ``"pairs"``
     ``n_gains`` gains scheduled by memberships unrelated to the plant's (e.g. estimated
     premises): every pair ``(i, j)``, ``label[i,j]`` (Ichalal 2011 (23)).
+``"reduced"``
+    reduced-order (Luenberger) observer: one common gain ``L`` (n - p, p) of the unmeasured
+    block, the constraints posed on its error system ``A22_i - L A12_i`` in the coordinates
+    where ``C = [I 0]`` (:mod:`vehicle_observers.design.reduced`); ``system`` is then that
+    error system (``full_system`` the plant, ``coordinates`` the change of coordinates).
 
 ``G_ij`` is any constraint's matrix at the pair (:mod:`vehicle_observers.design.constraints`);
 every constraint matrix is affine in the closed-loop data, so the relaxations apply to each.
@@ -67,7 +72,7 @@ from vehicle_observers.design.lmi import (
 )
 from vehicle_observers.design.system import PolytopicSystem
 
-GAINS = ("common", "pdc", "pairs")
+GAINS = ("common", "pdc", "pairs", "reduced")
 RELAXATIONS = ("tanaka", "tuan")
 
 
@@ -75,7 +80,7 @@ def terms(system: PolytopicSystem, gains: str, n_gains: int, relaxation: str):
     """The LMIs of a gain structure: list of ``(suffix, [(coef, i, j), ...])``; each LMI is
     ``sum coef G_ij < 0`` (0-based ``i`` vertex, ``j`` gain)."""
     q = system.q
-    if gains == "common":
+    if gains in ("common", "reduced"):
         return [(f"[{i + 1}]", [(1.0, i, 0)]) for i in range(q)]
     if gains == "pairs":
         return [(f"[{i + 1},{j + 1}]", [(1.0, i, j)]) for i in range(q) for j in range(n_gains)]
@@ -211,7 +216,7 @@ class ObserverSynthesis:
     system : the vertex data.
     constraints : sequence of :mod:`~vehicle_observers.design.constraints` objects (composed:
         every one must hold at every pair).
-    gains : ``"common"``, ``"pdc"`` or ``"pairs"``; ``n_gains`` the number of gains of
+    gains : ``"common"``, ``"pdc"``, ``"pairs"`` or ``"reduced"``; ``n_gains`` the number of gains of
         ``"pairs"``.
     relaxation : ``"tuan"`` (default) or ``"tanaka"``, for PDC with vertex-dependent ``C_i``.
     P : ``"symmetric"`` or ``"diagonal"``.
@@ -262,7 +267,12 @@ class ObserverSynthesis:
                     or n_gains < 1:
                 raise ObserverArgumentError(f"{who}: gains='pairs' needs n_gains, a positive "
                                             f"integer, got {n_gains!r}")
-        r = {"common": 1, "pdc": system.q, "pairs": n_gains}[gains]
+        self.full_system, self.coordinates = system, None
+        if gains == "reduced":
+            from vehicle_observers.design.reduced import reduced_system
+
+            system, self.coordinates = reduced_system(system)
+        r = {"common": 1, "pdc": system.q, "pairs": n_gains, "reduced": 1}[gains]
         if isinstance(P_lower, str):
             if P_lower != "auto":
                 raise ObserverArgumentError(f"{who}: P_lower must be a number, None or 'auto'")
@@ -291,7 +301,7 @@ class ObserverSynthesis:
 
     def replace(self, **kw) -> "ObserverSynthesis":
         """A copy with some arguments changed (e.g. ``constraints=[...]``)."""
-        args = dict(system=self.system, constraints=self.constraints, gains=self.gains,
+        args = dict(system=self.full_system, constraints=self.constraints, gains=self.gains,
                     n_gains=self.n_gains if self.gains == "pairs" else None,
                     relaxation=self.relaxation, P=self.P_kind, P_lower=self.P_lower,
                     P_upper=self.P_upper, gain_bound=self.gain_bound, eps=self.eps,
@@ -339,7 +349,8 @@ class ObserverSynthesis:
             if not isinstance(c, Metzler):
                 continue
             for i, j in self._pairs():
-                suffix = f"[{i + 1}]" if self.gains == "common" else f"[{i + 1},{j + 1}]"
+                suffix = f"[{i + 1}]" if self.gains in ("common", "reduced") else \
+                    f"[{i + 1},{j + 1}]"
                 d.nonnegative(f"{c.label}{suffix}",
                               lambda V, i=i, j=j: _offdiag(V.P @ s.A[i] - V[gn[j]] @ s.C[i]),
                               margin=c.margin)
@@ -356,7 +367,7 @@ class ObserverSynthesis:
 
     def _pairs(self):
         """Every frozen vertex pair ``(i, j)`` whose error system the LMIs constrain."""
-        if self.gains == "common":
+        if self.gains in ("common", "reduced"):
             return [(i, 0) for i in range(self.system.q)]
         if self.gains == "pairs":
             return [(i, j) for i in range(self.system.q) for j in range(self.n_gains)]
