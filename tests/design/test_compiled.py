@@ -44,17 +44,41 @@ def test_compiled_problem_matches_cvxpy_solve_point_by_point():
     assert seen == {True, False}
 
 
-def test_compiled_problem_refuses_non_dpp_and_array_parameters():
-    """A problem that is not DPP (parameter times parameter-dependent variable product) or
-    an array parameter is refused in one line instead of compiled wrongly."""
+def test_compiled_problem_refuses_non_dpp_and_wrong_values():
+    """A problem that is not DPP (a product of two parameters times a variable) is refused,
+    and so are parameter values of the wrong number or size, each in one line."""
     x = cp.Variable()
     p, q = cp.Parameter(), cp.Parameter()
     with pytest.raises(ObserverArgumentError, match="not DPP"):
         CompiledLMI(cp.Problem(cp.Minimize(0), [p * q * x >= 1]), [p, q], {"x": x})
     v = cp.Parameter(2)
     y = cp.Variable(2)
-    with pytest.raises(ObserverArgumentError, match="scalar"):
-        CompiledLMI(cp.Problem(cp.Minimize(0), [y >= v]), [v], {"y": y})
+    comp = CompiledLMI(cp.Problem(cp.Minimize(cp.sum(y)), [y >= v]), [v], {"y": y})
+    with pytest.raises(ObserverArgumentError, match="entries"):
+        comp.solve([np.ones(3)])
+    with pytest.raises(ObserverArgumentError, match="expected"):
+        comp.solve([np.ones(2), 1.0])
+
+
+def test_array_and_signed_parameters_match_cvxpy():
+    """Matrix parameters (entries probed one by one, in cvxpy's order), a nonpositive
+    parameter (probed at -1) and a parameter multiplying a variable: the compiled solution
+    equals cvxpy's own at random values (catches a transposed parameter or a sign error)."""
+    rng = np.random.default_rng(1)
+    Ap = cp.Parameter((2, 3))
+    s = cp.Parameter(nonpos=True)
+    X = cp.Variable((3, 3), symmetric=True)
+    y = cp.Variable(2)
+    prob = cp.Problem(cp.Minimize(cp.trace(X) + cp.sum(y)),
+                      [X >> np.eye(3) + s * X, y >= Ap @ np.ones(3), y >= -5])
+    comp = CompiledLMI(prob, [Ap, s], {"X": X, "y": y})
+    for _ in range(3):
+        a, sv = rng.normal(size=(2, 3)), -abs(rng.normal())
+        vals, status, _ = comp.solve([a, sv])
+        Ap.value, s.value = a, sv
+        prob.solve(solver="CLARABEL")
+        np.testing.assert_allclose(vals["y"], y.value, rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(vals["X"], X.value, rtol=1e-6, atol=1e-7)
 
 
 def test_batched_certificate_equals_each_certificate_alone():

@@ -516,21 +516,22 @@ def timed_solve(syn: ObserverSynthesis, **kw) -> tuple[ObserverDesign, float, fl
 class CompiledLMI:
     """A DPP cvxpy problem compiled once; each point only substitutes numbers.
 
-    A DPP problem's conic data is affine in its parameters ``theta`` (cvxpy's own parameter
-    tensor): ``A(theta) = A_0 + sum_k theta_k (A_k - A_0)``, the same for ``b`` and ``c``,
-    where ``A_0`` is the data at ``theta = 0`` and ``A_k`` at the ``k``-th unit vector. They
-    are computed here once through cvxpy (``Problem.get_problem_data``, so cvxpy's own
-    canonicalisation and cone formatting), stored on one union sparsity pattern, and each
-    point costs one axpy per parameter. The solver object (Clarabel) is built once and then
-    only receives new data (``DefaultSolver.update``: no re-allocation, no new symbolic
-    factorisation; the interior-point iterations start afresh). The decision variables are
-    recovered from the solver's primal vector by the linear map cvxpy's reductions apply to
-    it (found once by inverting the chain on unit vectors).
+    A DPP problem's conic data is affine in its parameters ``theta`` (every entry of every
+    parameter; cvxpy's own parameter tensor): ``A(theta) = A_0 + sum_k theta_k (A_k - A_0)``,
+    the same for ``b`` and ``c``, where ``A_0`` is the data at ``theta = 0`` and ``A_k`` at the
+    ``k``-th unit vector. They are computed here once through cvxpy
+    (``Problem.get_problem_data``, so cvxpy's own canonicalisation and cone formatting),
+    stored on one union sparsity pattern, and each point costs one matrix-vector product.
+    The solver object (Clarabel) is built once and then only receives new data
+    (``DefaultSolver.update``: no re-allocation, no new symbolic factorisation; the
+    interior-point iterations start afresh; ``reuse = False`` builds a new one per point).
+    The decision variables are recovered from the solver's primal vector by the linear map
+    cvxpy's reductions apply to it (found once by inverting the chain on unit vectors).
 
     Parameters
     ----------
-    problem : a DPP ``cvxpy.Problem``.
-    params : sequence of scalar ``cvxpy.Parameter`` s, in the order :meth:`solve` takes values.
+    problem : a DPP ``cvxpy.Problem`` with a linear objective.
+    params : sequence of ``cvxpy.Parameter`` s, in the order :meth:`solve` takes values.
     variables : dict name -> ``cvxpy.Variable`` whose values :meth:`solve` returns.
     """
 
@@ -547,13 +548,17 @@ class CompiledLMI:
 
         if not problem.is_dpp():
             raise ObserverArgumentError("CompiledLMI: the problem is not DPP")
-        if any(p.size != 1 for p in params):
-            raise ObserverArgumentError("CompiledLMI: scalar parameters only")
         self.params, self.variables = list(params), dict(variables)
+        # probes: every parameter 0, then one entry at a time set to +1 (-1 if nonpositive)
+        probes = [(None, 0, 0.0)] + [(m, k, -1.0 if p.is_nonpos() else 1.0)
+                                     for m, p in enumerate(self.params) for k in range(p.size)]
         datas = []
-        for k in range(len(params) + 1):
-            for m, p in enumerate(params):
-                p.value = 1.0 if m == k - 1 else 0.0
+        for m, k, v in probes:
+            for mm, p in enumerate(self.params):
+                x = np.zeros(p.size)
+                if mm == m:
+                    x[k] = v
+                p.value = x.reshape(p.shape) if p.shape else float(x[0])
             data, chain, inv = problem.get_problem_data(solver="CLARABEL")
             datas.append(data)
         if "P" in datas[0] and datas[0]["P"].nnz:
@@ -567,16 +572,19 @@ class CompiledLMI:
         vals = [np.asarray(A[r, c]).ravel() for A in As]
         self._A = sp.csc_array((vals[0].copy(), pattern.indices.copy(), pattern.indptr.copy()),
                                shape=pattern.shape)
+        scale = np.array([v for _, _, v in probes[1:]])
         self._a0, self._b0, self._c0 = vals[0], datas[0]["b"], datas[0]["c"]
-        self._da = [v - vals[0] for v in vals[1:]]
-        self._db = [d["b"] - self._b0 for d in datas[1:]]
-        self._dc = [d["c"] - self._c0 for d in datas[1:]]
+        self._Da = np.column_stack([v - vals[0] for v in vals[1:]]) / scale
+        self._Db = np.column_stack([d["b"] - self._b0 for d in datas[1:]]) / scale
+        self._Dc = np.column_stack([d["c"] - self._c0 for d in datas[1:]]) / scale
         self._P = sp.csc_array((len(self._c0), len(self._c0)))
         self._cones = dims_to_solver_cones(datas[0]["dims"])
         self._settings = clarabel.DefaultSettings()
         self._settings.verbose = False
         self._solver = None
         self._clarabel = clarabel
+        #: re-use the solver object with new data (``False``: a new solver per point)
+        self.reuse = True
         #: wall time [s] spent inside the solver's ``solve`` calls, summed (Clarabel's own
         #: ``solve_time`` counts a little more: its internal timer)
         self.solve_wall = 0.0
@@ -598,25 +606,35 @@ class CompiledLMI:
                                          for k in range(nx)]) for n in zero}
         self._shape = {n: zero[n].shape for n in zero}
 
-    def data(self, theta):
-        """``(A, b, c)`` of the conic problem at parameter values ``theta``."""
-        a, b, c = self._a0.copy(), self._b0.copy(), self._c0.copy()
-        for t, da, db, dc in zip(theta, self._da, self._db, self._dc):
-            if t:
-                a += t * da
-                b += t * db
-                c += t * dc
-        self._A.data[:] = a                  # same pattern: the values only
-        return self._A, b, c
+    def theta(self, values) -> np.ndarray:
+        """The flat parameter vector of ``values`` (one array or number per parameter)."""
+        if len(values) != len(self.params):
+            raise ObserverArgumentError(f"CompiledLMI: {len(self.params)} parameter values "
+                                        f"expected, got {len(values)}")
+        out = []
+        for p, v in zip(self.params, values):
+            v = np.asarray(v, dtype=float)
+            if v.size != p.size:
+                raise ObserverArgumentError(f"CompiledLMI: parameter {p.name()} has {p.size} "
+                                            f"entries, got {v.size}")
+            out.append(v.reshape(p.shape).ravel() if p.shape else v.ravel())
+        return np.concatenate(out)
 
-    def solve(self, theta):
-        """Solve at parameter values ``theta`` (floats, in the order of ``params``).
+    def data(self, values):
+        """``(A, b, c)`` of the conic problem at parameter values ``values``."""
+        th = self.theta(values)
+        self._A.data[:] = self._a0 + self._Da @ th       # same pattern: the values only
+        return self._A, self._b0 + self._Db @ th, self._c0 + self._Dc @ th
+
+    def solve(self, values):
+        """Solve at parameter ``values`` (one array or number per parameter, in the order of
+        ``params``).
 
         Returns ``(values, status, solver_seconds)``: ``values`` dict name -> array (``None``
         unless Clarabel's status is ``Solved`` or ``AlmostSolved``), Clarabel's status string
         and its own ``solve_time`` [s]."""
-        A, b, c = self.data([float(t) for t in theta])
-        if self._solver is not None and self._solver.is_data_update_allowed():
+        A, b, c = self.data(values)
+        if self.reuse and self._solver is not None and self._solver.is_data_update_allowed():
             self._solver.update(q=c, A=A, b=b)
         else:
             self._solver = self._clarabel.DefaultSolver(self._P, c, A, b, self._cones,
