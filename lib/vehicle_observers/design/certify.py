@@ -49,8 +49,10 @@ def _he(X):
 
 def _kron_stack(Lr, Mr, P, PA):
     """``L (x) P + M (x) PA + M^T (x) PA^T`` for a stack ``PA`` (N, n, n)."""
-    N = PA.shape[0]
-    out = np.kron(Lr, P)[None] + np.einsum("ab,kij->kaibj", Mr, PA).reshape(
+    N, n = PA.shape[0], P.shape[0]
+    m = Lr.shape[0] * n                 # np.kron(Lr, P), without np.kron's Python overhead
+    out = np.einsum("ab,ij->aibj", Lr, P).reshape(m, m)[None] + np.einsum(
+        "ab,kij->kaibj", Mr, PA).reshape(
         N, Mr.shape[0] * PA.shape[1], -1)
     return out + np.einsum("ba,kji->kaibj", Mr, PA).reshape(N, Mr.shape[0] * PA.shape[1], -1)
 
