@@ -172,7 +172,7 @@ def test_observer_arguments_are_checked(design, quick_clean):
             to.TSPremiseObserver(design, dt)
     with pytest.raises(ObserverArgumentError, match="substeps"):
         to.TSPremiseObserver(design, q.dt, substeps=0)
-    with pytest.raises(ObserverArgumentError, match="design must be an ObserverDesign"):
+    with pytest.raises(ObserverArgumentError, match="design must be a Theorem1Design"):
         to.TSPremiseObserver(object(), q.dt)
     obs = to.TSPremiseObserver(design, q.dt)
     with pytest.raises(ObserverArgumentError, match=r"u must be \(N, 3\)"):

@@ -10,9 +10,10 @@ accel_max``, one ``gamma_i`` per mode, minimise ``sum_i gamma_i``) are written o
 cvxpy ``Parameter`` s for every number that changes across the map (the element-wise bounds
 ``A_i^{j-}``, ``A_i^{j+}``, ``phi``, ``C`` (``C_z = C T^-1`` of the change of coordinates
 ``z = T(kappa) x``, :mod:`vehicle_observers.observers.interval_coordinates`) and
-``epsilon``): the problem is DPP, so cvxpy canonicalises it once per process and each map
-point only substitutes numbers. The problem is built inside the process that solves (a
-Dask worker), never shipped.
+``epsilon``): the problem is DPP, so it is compiled once per process
+(:class:`~vehicle_observers.design.synthesis.CompiledLMI`: the solver's data affine in the
+parameters, found through cvxpy) and each map point only substitutes numbers. The problem
+is built inside the process that solves (a Dask worker), never shipped.
 
 Each point is decided in this order:
 
@@ -30,11 +31,11 @@ Each point is decided in this order:
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
 
 from vehicle_observers.core.errors import InfeasibleDesign
+from vehicle_observers.design.synthesis import CompiledLMI
 
 N_MODES = 3
 EPS_DECAY = 1.0
@@ -108,51 +109,46 @@ class ParametricTheorem2:
                 cons.append(cp.hstack([X[0, 0], X[1, 1]]) + self.eps
                             * cp.hstack([self.d[i][j][0], self.d[i][j][1]]) >= 0)
         self.problem = cp.Problem(cp.Minimize(sum(self.g)), cons)
-        #: Clarabel's solver object, re-used with new data (``update``: no re-allocation, no
-        #: new symbolic factorisation; the interior-point iterations start afresh, so the
-        #: solution is bit-identical to a new solver's; ``reuse=False`` builds a new one)
-        self.cache: dict = {}
-        self.reuse = True
         if not self.problem.is_dpp():   # pragma: no cover - a structural property, tested
             raise RuntimeError("Theorem 2 problem is not DPP")
+        #: the problem compiled once (the solver's data affine in the parameters, the
+        #: Clarabel solver re-used with new data: no re-allocation, no new symbolic
+        #: factorisation; the interior-point iterations start afresh, so the solution is
+        #: bit-identical to a new solver's; ``reuse = False`` builds a new one)
+        self.compiled = CompiledLMI(
+            self.problem, [self.Alo_all, self.Ahi_all, self.phi, self.C, self.eps],
+            {**{f"d{i}{j}": self.d[i][j] for i in range(K) for j in range(4)},
+             **{f"W{i}{j}": self.W[i][j] for i in range(K) for j in range(4)},
+             **{f"M{i}": self.M[i] for i in range(K)},
+             **{f"g{i}": self.g[i] for i in range(K)}})
+
+    @property
+    def reuse(self) -> bool:
+        return self.compiled.reuse
+
+    @reuse.setter
+    def reuse(self, v: bool):
+        self.compiled.reuse = bool(v)
 
     def solve(self, model, epsilon: float, phi) -> dict:
-        """Substitute the point's numbers and solve (Clarabel). The solution is recovered
-        primal only: cvxpy's recovery of the 24 PSD duals costs more than the solve and the
-        certificate does not use them."""
-        import cvxpy as cp
-        from cvxpy.reductions.solution import Solution
+        """Substitute the point's numbers into the compiled problem and solve (Clarabel).
+        Only the primal solution is recovered (the certificate does not use the duals).
+        ``status`` is cvxpy's name of Clarabel's status."""
+        from cvxpy.reductions.solvers.conic_solvers.clarabel_conif import CLARABEL
 
         side = lambda A: np.concatenate([A[i, j] for i in range(self.K) for j in range(4)], axis=1)
-        self.Alo_all.value = side(model.A_lo)
-        self.Ahi_all.value = side(model.A_hi)
-        self.phi.value = np.asarray(phi, float)
-        self.C.value = np.asarray(model.C, float)
-        self.eps.value = float(epsilon)
         t0 = time.perf_counter()
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                data, chain, inv = self.problem.get_problem_data(solver="CLARABEL", solver_opts={})
-                raw = chain.solver.solve_via_data(data, self.reuse, False, {},
-                                                  self.cache if self.reuse else None)
-                sol = chain.reductions[-1].invert(raw, inv[-1])
-                sol = Solution(sol.status, sol.opt_val, sol.primal_vars, {}, sol.attr)
-                for red, idata in reversed(list(zip(chain.reductions[:-1], inv[:-1]))):
-                    sol = red.invert(sol, idata)
-        except cp.error.SolverError as exc:
-            return {"status": "solver_error", "message": str(exc).splitlines()[0],
-                    "wall": time.perf_counter() - t0, "solver_time": float("nan")}
-        wall = time.perf_counter() - t0
-        out = {"status": sol.status, "wall": wall,
-               "solver_time": float(sol.attr.get("solve_time", float("nan")))}
-        pv = sol.primal_vars
-        if sol.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and pv:
-            val = lambda v: np.asarray(pv[v.id], float).reshape(v.shape, order="F")
-            out["P"] = np.array([[val(self.d[i][j]) for j in range(4)] for i in range(self.K)])
-            out["W"] = np.array([[val(self.W[i][j]) for j in range(4)] for i in range(self.K)])
-            out["M"] = np.array([val(self.M[i]) for i in range(self.K)])
-            out["gamma"] = np.array([float(np.asarray(pv[g.id]).ravel()[0]) for g in self.g])
+        vals, status, solver_time = self.compiled.solve(
+            [side(model.A_lo), side(model.A_hi), np.asarray(phi, float),
+             np.asarray(model.C, float), float(epsilon)])
+        out = {"status": CLARABEL.STATUS_MAP.get(status, "solver_error"),
+               "wall": time.perf_counter() - t0, "solver_time": solver_time}
+        if vals is not None:
+            K = self.K
+            out["P"] = np.array([[vals[f"d{i}{j}"] for j in range(4)] for i in range(K)])
+            out["W"] = np.array([[vals[f"W{i}{j}"] for j in range(4)] for i in range(K)])
+            out["M"] = np.array([vals[f"M{i}"] for i in range(K)])
+            out["gamma"] = np.array([float(vals[f"g{i}"].ravel()[0]) for i in range(K)])
         return out
 
 

@@ -49,8 +49,10 @@ def _he(X):
 
 def _kron_stack(Lr, Mr, P, PA):
     """``L (x) P + M (x) PA + M^T (x) PA^T`` for a stack ``PA`` (N, n, n)."""
-    N = PA.shape[0]
-    out = np.kron(Lr, P)[None] + np.einsum("ab,kij->kaibj", Mr, PA).reshape(
+    N, n = PA.shape[0], P.shape[0]
+    m = Lr.shape[0] * n                 # np.kron(Lr, P), without np.kron's Python overhead
+    out = np.einsum("ab,ij->aibj", Lr, P).reshape(m, m)[None] + np.einsum(
+        "ab,kij->kaibj", Mr, PA).reshape(
         N, Mr.shape[0] * PA.shape[1], -1)
     return out + np.einsum("ba,kji->kaibj", Mr, PA).reshape(N, Mr.shape[0] * PA.shape[1], -1)
 
@@ -219,6 +221,70 @@ class ObserverCertificate:
         return float(np.nanmax(self.poles.real))
 
 
+def check_matrices(names, Ms, kind: str) -> list[ConstraintCheck]:
+    """:func:`~vehicle_observers.design.lmi.check_matrix` of a stack ``Ms`` (N, m, m) of
+    ``"neg"`` / ``"pos"`` matrices in one batched LAPACK call (``numpy.linalg.eigvalsh`` on
+    the stack runs the same routine on each matrix, so every check is the one
+    ``check_matrix`` returns for it alone). A stack LAPACK cannot diagonalise, or one with a
+    non-finite entry, falls back to ``check_matrix`` matrix by matrix."""
+    Ms = np.asarray(Ms, dtype=float)
+    if kind not in ("neg", "pos") or Ms.ndim != 3 or Ms.shape[1] != Ms.shape[2] \
+            or not np.all(np.isfinite(Ms)):
+        return [check_matrix(nm, M, kind) for nm, M in zip(names, Ms)]
+    Mt = np.swapaxes(Ms, 1, 2)
+    with np.errstate(over="ignore", invalid="ignore"):
+        S = Ms / 2 + Mt / 2
+        asym = np.abs(Ms / 2 - Mt / 2).max(axis=(1, 2)) * 2 / np.maximum(
+            np.abs(Ms).max(axis=(1, 2)), 1e-300)
+    try:
+        ev = np.linalg.eigvalsh(S)
+    except np.linalg.LinAlgError:
+        return [check_matrix(nm, M, kind) for nm, M in zip(names, Ms)]
+    scale = np.maximum(np.abs(ev).max(axis=1), 1e-300)
+    margin = -ev[:, -1] if kind == "neg" else ev[:, 0]
+    rel = margin / scale
+    m = Ms.shape[1]
+    return [ConstraintCheck(nm, kind, float(a), float(r), float(s), m)
+            for nm, a, r, s in zip(names, margin, rel, asym)]
+
+
+class _Batch:
+    """Matrices to check and to diagonalise, collected over designs and evaluated together:
+    one :func:`check_matrices` call per (kind, size) and one ``eigvals`` per size."""
+
+    def __init__(self):
+        self.mats: dict = {}
+        self.eig: dict = {}
+        self.done: dict = {}
+
+    def check(self, name, M, kind):
+        M = np.asarray(M, dtype=float)
+        if kind not in ("neg", "pos") or M.ndim != 2 or M.shape[0] != M.shape[1]:
+            return check_matrix(name, M, kind)             # evaluated now (rare shapes)
+        key = (kind, M.shape[0])
+        lst = self.mats.setdefault(key, [])
+        lst.append((name, M))
+        return ("chk", key, len(lst) - 1)
+
+    def eigvals(self, M):
+        key = M.shape[0]
+        lst = self.eig.setdefault(key, [])
+        lst.append(M)
+        return ("eig", key, len(lst) - 1)
+
+    def run(self):
+        for key, lst in self.mats.items():
+            self.done[("chk", key)] = check_matrices([n for n, _ in lst],
+                                                     np.array([M for _, M in lst]), key[0])
+        for key, lst in self.eig.items():
+            self.done[("eig", key)] = np.linalg.eigvals(np.array(lst))
+
+    def get(self, h):
+        if isinstance(h, tuple) and len(h) == 3 and h[0] in ("chk", "eig"):
+            return self.done[(h[0], h[1])][h[2]]
+        return h
+
+
 def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | None = None,
                      min_relative_margin: float = MIN_RELATIVE_MARGIN,
                      max_condition: float = MAX_CONDITION) -> ObserverCertificate:
@@ -230,6 +296,27 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
     constraint left them free). ``min_relative_margin``, ``max_condition``: the thresholds of
     "inconclusive" (defaults :data:`~vehicle_observers.design.lmi.MIN_RELATIVE_MARGIN`,
     :data:`~vehicle_observers.design.lmi.MAX_CONDITION`)."""
+    return certify_observers([(synthesis, P, L, gamma, c)], min_relative_margin,
+                             max_condition)[0]
+
+
+def certify_observers(items, min_relative_margin: float = MIN_RELATIVE_MARGIN,
+                      max_condition: float = MAX_CONDITION) -> list[ObserverCertificate]:
+    """:func:`certify_observer` of many designs at once: ``items`` a sequence of
+    ``(synthesis, P, L, gamma, c)``. Every constraint matrix of every design is rebuilt as in
+    :func:`certify_observer`, then the matrices of one size are checked in one batched
+    ``eigvalsh`` and the error-system poles of one size found in one batched ``eigvals``
+    (the same LAPACK routine per matrix: each certificate is the one
+    :func:`certify_observer` gives the design alone). Used by feasibility maps, where one
+    call certifies every solved point."""
+    batch = _Batch()
+    pending = [_prepare(*it, batch) for it in items]
+    batch.run()
+    return [_finish(pd, batch, min_relative_margin, max_condition) for pd in pending]
+
+
+def _prepare(synthesis, P, L, gamma, c, batch):
+    """The checks of one design, registered in ``batch`` (evaluated by :func:`_finish`)."""
     s = synthesis.system
     P = np.asarray(P, dtype=float)
     L = np.asarray(L, dtype=float)
@@ -238,17 +325,19 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
                                     f"({synthesis.n_gains}, {s.n}, {s.p}); got {P.shape}, "
                                     f"{L.shape}")
     K = P[None] @ L
-    checks: list[ConstraintCheck] = []
+    checks: list = []
     I = np.eye(s.n)
     if synthesis.P_lower is not None:
-        checks.append(check_matrix(synthesis.lower_name, P - synthesis.P_lower * I, "pos"))
+        checks.append(batch.check(synthesis.lower_name, P - synthesis.P_lower * I, "pos"))
     else:
-        checks.append(check_matrix("P > 0", P, "pos"))
+        checks.append(batch.check("P > 0", P, "pos"))
     if synthesis.P_upper is not None:
-        checks.append(check_matrix(synthesis.upper_name, synthesis.P_upper * I - P, "pos"))
+        checks.append(batch.check(synthesis.upper_name, synthesis.P_upper * I - P, "pos"))
     if synthesis.P_lower is not None:           # P itself: its conditioning decides too
-        checks.append(check_matrix("P > 0 (conditioning)", P, "pos"))
+        checks.append(batch.check("P > 0 (conditioning)", P, "pos"))
     Ps = (P + P.T) / 2
+    all_pairs = sorted({(i, j) for _, combo in synthesis.terms for _, i, j in combo})
+    index = {p: k for k, p in enumerate(all_pairs)}
     for con in synthesis.constraints:
         if isinstance(con, Metzler):
             continue
@@ -259,22 +348,33 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
                                         "gamma")
         if isinstance(con, InputToState) and cv is None:
             raise ObserverArgumentError("certify_observer: the input-to-state constraint needs c")
-        all_pairs = sorted({(i, j) for _, combo in synthesis.terms for _, i, j in combo})
-        index = {p: k for k, p in enumerate(all_pairs)}
         G = _stack_matrices(con, s, Ps, K, all_pairs, g, cv)
         for suffix, combo in synthesis.terms:
             M = sum(coef * G[index[(i, j)]] for coef, i, j in combo)
-            checks.append(check_matrix(f"{con.label}{suffix}", M, "neg"))
+            checks.append(batch.check(f"{con.label}{suffix}", M, "neg"))
         if isinstance(con, BoundedReal):
             gamma = g
+    pairs = synthesis._pairs()
+    Acl = {(i, j): s.A[i] - L[j] @ s.C[i] for i, j in pairs}
+    eig = {pr: batch.eigvals(Acl[pr]) for pr in pairs}
+    return synthesis, L, Acl, eig, checks, gamma
+
+
+def _finish(pending, batch, min_relative_margin, max_condition) -> ObserverCertificate:
+    """The certificate of one design from its evaluated checks and poles."""
+    synthesis, L, Acl, eig, checks, gamma = pending
+    s = synthesis.system
+    checks = [batch.get(h) for h in checks]
     # poles of every constrained frozen pair
     pairs = synthesis._pairs()
     poles = np.full((s.q, synthesis.n_gains, s.n), np.nan + 0j)
     fails = []
     for i, j in pairs:
-        poles[i, j] = np.linalg.eigvals(s.A[i] - L[j] @ s.C[i])
+        poles[i, j] = batch.get(eig[(i, j)])
     for con in synthesis.constraints:
-        for i, j in pairs:
+        if isinstance(con, InRegion):           # every pair's poles in one batched test
+            inside_all = con.region.contains(np.array([poles[i, j] for i, j in pairs]))
+        for k, (i, j) in enumerate(pairs):
             ev = poles[i, j]
             tag = f"pair ({i + 1},{j + 1})"
             if isinstance(con, Decay):
@@ -284,12 +384,12 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
                     fails.append(f"{con.label}{tag}: pole {ev[np.argmax(bad)]:.4g} of A_i - L_j C_i "
                                  f"violates the decay rate {con.alpha:g}")
             elif isinstance(con, InRegion):
-                inside = con.region.contains(ev)
+                inside = inside_all[k]
                 if not inside.all():
                     fails.append(f"{con.label}{tag}: pole {ev[np.argmin(inside)]:.4g} of "
                                  f"A_i - L_j C_i lies outside {con.region.name!r}")
             elif isinstance(con, Metzler):
-                M = s.A[i] - L[j] @ s.C[i]
+                M = Acl[(i, j)]
                 off = M[~np.eye(s.n, dtype=bool)]
                 m = float(off.min()) if off.size else 0.0
                 checks.append(ConstraintCheck(f"{con.label}[{i + 1},{j + 1}]", "nonneg", m,
@@ -307,8 +407,8 @@ def certify_observer(synthesis, P, L, gamma: float | None = None, c: float | Non
     hinf = {}
     if gamma is not None and any(isinstance(x, BoundedReal) for x in synthesis.constraints):
         for i, j in pairs:
-            Acl, Bcl, Ccl, Dcl = s.error_system(i, L[j])
-            hinf[(i + 1, j + 1)] = hinf_norm(Acl, Bcl, Ccl, Dcl, discrete=s.discrete)
+            Ac, Bc, Cc, Dc = s.error_system(i, L[j])
+            hinf[(i + 1, j + 1)] = hinf_norm(Ac, Bc, Cc, Dc, discrete=s.discrete)
     cert = Certificate(checks, min_relative_margin, max_condition)
     return ObserverCertificate(cert, poles, fails, hinf,
                                gamma if any(isinstance(x, BoundedReal)

@@ -18,6 +18,11 @@ Observer ``xhat' = A(h) xhat + B(h) u + L(h) (y - C(h) xhat)`` for the system of
 ``"pairs"``
     ``n_gains`` gains scheduled by memberships unrelated to the plant's (e.g. estimated
     premises): every pair ``(i, j)``, ``label[i,j]`` (Ichalal 2011 (23)).
+``"reduced"``
+    reduced-order (Luenberger) observer: one common gain ``L`` (n - p, p) of the unmeasured
+    block, the constraints posed on its error system ``A22_i - L A12_i`` in the coordinates
+    where ``C = [I 0]`` (:mod:`vehicle_observers.design.reduced`); ``system`` is then that
+    error system (``full_system`` the plant, ``coordinates`` the change of coordinates).
 
 ``G_ij`` is any constraint's matrix at the pair (:mod:`vehicle_observers.design.constraints`);
 every constraint matrix is affine in the closed-loop data, so the relaxations apply to each.
@@ -67,7 +72,7 @@ from vehicle_observers.design.lmi import (
 )
 from vehicle_observers.design.system import PolytopicSystem
 
-GAINS = ("common", "pdc", "pairs")
+GAINS = ("common", "pdc", "pairs", "reduced")
 RELAXATIONS = ("tanaka", "tuan")
 
 
@@ -78,7 +83,7 @@ def terms(system: PolytopicSystem, gains: str, n_gains: int, relaxation: str,
     double sum even with a common ``C`` (a vertex-dependent Lyapunov matrix ``P_i`` makes
     ``P(h) A(h)`` a double sum, :mod:`vehicle_observers.design.lyapunov`)."""
     q = system.q
-    if gains == "common":
+    if gains in ("common", "reduced"):
         return [(f"[{i + 1}]", [(1.0, i, 0)]) for i in range(q)]
     if gains == "pairs":
         return [(f"[{i + 1},{j + 1}]", [(1.0, i, j)]) for i in range(q) for j in range(n_gains)]
@@ -214,7 +219,7 @@ class ObserverSynthesis:
     system : the vertex data.
     constraints : sequence of :mod:`~vehicle_observers.design.constraints` objects (composed:
         every one must hold at every pair).
-    gains : ``"common"``, ``"pdc"`` or ``"pairs"``; ``n_gains`` the number of gains of
+    gains : ``"common"``, ``"pdc"``, ``"pairs"`` or ``"reduced"``; ``n_gains`` the number of gains of
         ``"pairs"``.
     relaxation : ``"tuan"`` (default) or ``"tanaka"``, for PDC with vertex-dependent ``C_i``.
     P : ``"symmetric"`` or ``"diagonal"``.
@@ -265,7 +270,12 @@ class ObserverSynthesis:
                     or n_gains < 1:
                 raise ObserverArgumentError(f"{who}: gains='pairs' needs n_gains, a positive "
                                             f"integer, got {n_gains!r}")
-        r = {"common": 1, "pdc": system.q, "pairs": n_gains}[gains]
+        self.full_system, self.coordinates = system, None
+        if gains == "reduced":
+            from vehicle_observers.design.reduced import reduced_system
+
+            system, self.coordinates = reduced_system(system)
+        r = {"common": 1, "pdc": system.q, "pairs": n_gains, "reduced": 1}[gains]
         if isinstance(P_lower, str):
             if P_lower != "auto":
                 raise ObserverArgumentError(f"{who}: P_lower must be a number, None or 'auto'")
@@ -299,7 +309,7 @@ class ObserverSynthesis:
 
     def replace(self, **kw) -> "ObserverSynthesis":
         """A copy with some arguments changed (e.g. ``constraints=[...]``)."""
-        args = dict(system=self.system, constraints=self.constraints, gains=self.gains,
+        args = dict(system=self.full_system, constraints=self.constraints, gains=self.gains,
                     n_gains=self.n_gains if self.gains == "pairs" else None,
                     relaxation=self.relaxation, P=self.P_kind, P_lower=self.P_lower,
                     P_upper=self.P_upper, gain_bound=self.gain_bound, eps=self.eps,
@@ -347,7 +357,8 @@ class ObserverSynthesis:
             if not isinstance(c, Metzler):
                 continue
             for i, j in self._pairs():
-                suffix = f"[{i + 1}]" if self.gains == "common" else f"[{i + 1},{j + 1}]"
+                suffix = f"[{i + 1}]" if self.gains in ("common", "reduced") else \
+                    f"[{i + 1},{j + 1}]"
                 d.nonnegative(f"{c.label}{suffix}",
                               lambda V, i=i, j=j: _offdiag(V.P @ s.A[i] - V[gn[j]] @ s.C[i]),
                               margin=c.margin)
@@ -364,7 +375,7 @@ class ObserverSynthesis:
 
     def _pairs(self):
         """Every frozen vertex pair ``(i, j)`` whose error system the LMIs constrain."""
-        if self.gains == "common":
+        if self.gains in ("common", "reduced"):
             return [(i, 0) for i in range(self.system.q)]
         if self.gains == "pairs":
             return [(i, j) for i in range(self.system.q) for j in range(self.n_gains)]
@@ -508,26 +519,155 @@ def timed_solve(syn: ObserverSynthesis, **kw) -> tuple[ObserverDesign, float, fl
     return des, des.solution.solve_time, time.perf_counter() - t0
 
 
-def decay_disk_map(system: PolytopicSystem, alphas, radii, eps: float = 1e-7,
-                   P_lower: float = 1.0, **thresholds) -> dict:
-    """Feasibility map of ``Decay(alpha) + InRegion(disk(R))`` (common gain, continuous time)
-    on the grid ``alphas x radii``, the problem built **once** with cvxpy Parameters
-    ``alpha``, ``R`` (DPP: cvxpy canonicalises it once and only re-fills the solver's data):
 
-        P - P_lower I > eps I,   He(P A_i - K C_i) + 2 alpha P < -eps I,
-        [[-R P, P A_i - K C_i], [(P A_i - K C_i)^T, -R P]] < -eps I     (i = 1..q).
+# ---- a problem compiled once, solved at many parameter values ----------------------------
+class CompiledLMI:
+    """A DPP cvxpy problem compiled once; each point only substitutes numbers.
 
-    Every solved point is certified from the data by :func:`certify_observer` (the LMIs
-    rebuilt in numpy from ``A_i, C_i``, ``L = P^-1 K``, ``P``). Returns ``{"alpha", "R",
-    "status" (na, nR) str ("infeasible" where the solver found no point), "solver_s"
-    (Clarabel's own time, summed), "total_s"}``."""
+    A DPP problem's conic data is affine in its parameters ``theta`` (every entry of every
+    parameter; cvxpy's own parameter tensor): ``A(theta) = A_0 + sum_k theta_k (A_k - A_0)``,
+    the same for ``b`` and ``c``, where ``A_0`` is the data at ``theta = 0`` and ``A_k`` at the
+    ``k``-th unit vector. They are computed here once through cvxpy
+    (``Problem.get_problem_data``, so cvxpy's own canonicalisation and cone formatting),
+    stored on one union sparsity pattern, and each point costs one matrix-vector product.
+    The solver object (Clarabel) is built once and then only receives new data
+    (``DefaultSolver.update``: no re-allocation, no new symbolic factorisation; the
+    interior-point iterations start afresh; ``reuse = False`` builds a new one per point).
+    The decision variables are recovered from the solver's primal vector by the linear map
+    cvxpy's reductions apply to it (found once by inverting the chain on unit vectors).
+
+    Parameters
+    ----------
+    problem : a DPP ``cvxpy.Problem`` with a linear objective.
+    params : sequence of ``cvxpy.Parameter`` s, in the order :meth:`solve` takes values.
+    variables : dict name -> ``cvxpy.Variable`` whose values :meth:`solve` returns.
+    """
+
+    OK = ("Solved", "AlmostSolved")
+
+    def __init__(self, problem, params, variables: dict):
+        import clarabel
+        import cvxpy as cp
+        import scipy.sparse as sp
+        from cvxpy.reductions.solution import Solution
+        from cvxpy.reductions.solvers.conic_solvers.clarabel_conif import (
+            dims_to_solver_cones,
+        )
+
+        if not problem.is_dpp():
+            raise ObserverArgumentError("CompiledLMI: the problem is not DPP")
+        self.params, self.variables = list(params), dict(variables)
+        # probes: every parameter 0, then one entry at a time set to +1 (-1 if nonpositive)
+        probes = [(None, 0, 0.0)] + [(m, k, -1.0 if p.is_nonpos() else 1.0)
+                                     for m, p in enumerate(self.params) for k in range(p.size)]
+        datas = []
+        for m, k, v in probes:
+            for mm, p in enumerate(self.params):
+                x = np.zeros(p.size)
+                if mm == m:
+                    x[k] = v
+                p.value = x.reshape(p.shape) if p.shape else float(x[0])
+            data, chain, inv = problem.get_problem_data(solver="CLARABEL")
+            datas.append(data)
+        if "P" in datas[0] and datas[0]["P"].nnz:
+            raise ObserverArgumentError("CompiledLMI: linear objectives only")
+        As = [sp.csc_array(d["A"]) for d in datas]
+        pattern = sp.csc_array(sum(abs(A) for A in As))
+        pattern.sum_duplicates()
+        pattern.sort_indices()
+        r = pattern.indices                              # csc order: column by column
+        c = np.repeat(np.arange(pattern.shape[1]), np.diff(pattern.indptr))
+        vals = [np.asarray(A[r, c]).ravel() for A in As]
+        self._A = sp.csc_array((vals[0].copy(), pattern.indices.copy(), pattern.indptr.copy()),
+                               shape=pattern.shape)
+        scale = np.array([v for _, _, v in probes[1:]])
+        self._a0, self._b0, self._c0 = vals[0], datas[0]["b"], datas[0]["c"]
+        self._Da = np.column_stack([v - vals[0] for v in vals[1:]]) / scale
+        self._Db = np.column_stack([d["b"] - self._b0 for d in datas[1:]]) / scale
+        self._Dc = np.column_stack([d["c"] - self._c0 for d in datas[1:]]) / scale
+        self._P = sp.csc_array((len(self._c0), len(self._c0)))
+        self._cones = dims_to_solver_cones(datas[0]["dims"])
+        self._settings = clarabel.DefaultSettings()
+        self._settings.verbose = False
+        self._solver = None
+        self._clarabel = clarabel
+        #: re-use the solver object with new data (``False``: a new solver per point)
+        self.reuse = True
+        #: wall time [s] spent inside the solver's ``solve`` calls, summed (Clarabel's own
+        #: ``solve_time`` counts a little more: its internal timer)
+        self.solve_wall = 0.0
+        # primal recovery: cvxpy's reductions map the solver's x linearly to the variables
+        vid = inv[-1][chain.solver.VAR_ID]
+        nx = len(self._c0)
+
+        def recover(x):
+            sol = Solution(cp.OPTIMAL, 0.0, {vid: x}, {}, {})
+            for red, idata in reversed(list(zip(chain.reductions[:-1], inv[:-1]))):
+                sol = red.invert(sol, idata)
+            return {n: np.asarray(sol.primal_vars[v.id], float).reshape(v.shape, order="F")
+                    for n, v in self.variables.items()}
+
+        zero = recover(np.zeros(nx))
+        cols = [recover(np.eye(nx)[k]) for k in range(nx)]
+        self._off = {n: zero[n].ravel() for n in zero}
+        self._map = {n: np.column_stack([cols[k][n].ravel() - self._off[n]
+                                         for k in range(nx)]) for n in zero}
+        self._shape = {n: zero[n].shape for n in zero}
+
+    def theta(self, values) -> np.ndarray:
+        """The flat parameter vector of ``values`` (one array or number per parameter)."""
+        if len(values) != len(self.params):
+            raise ObserverArgumentError(f"CompiledLMI: {len(self.params)} parameter values "
+                                        f"expected, got {len(values)}")
+        out = []
+        for p, v in zip(self.params, values):
+            v = np.asarray(v, dtype=float)
+            if v.size != p.size:
+                raise ObserverArgumentError(f"CompiledLMI: parameter {p.name()} has {p.size} "
+                                            f"entries, got {v.size}")
+            out.append(v.reshape(p.shape).ravel() if p.shape else v.ravel())
+        return np.concatenate(out)
+
+    def data(self, values):
+        """``(A, b, c)`` of the conic problem at parameter values ``values``."""
+        th = self.theta(values)
+        self._A.data[:] = self._a0 + self._Da @ th       # same pattern: the values only
+        return self._A, self._b0 + self._Db @ th, self._c0 + self._Dc @ th
+
+    def solve(self, values):
+        """Solve at parameter ``values`` (one array or number per parameter, in the order of
+        ``params``).
+
+        Returns ``(values, status, solver_seconds)``: ``values`` dict name -> array (``None``
+        unless Clarabel's status is ``Solved`` or ``AlmostSolved``), Clarabel's status string
+        and its own ``solve_time`` [s]."""
+        A, b, c = self.data(values)
+        if self.reuse and self._solver is not None and self._solver.is_data_update_allowed():
+            self._solver.update(q=c, A=A, b=b)
+        else:
+            self._solver = self._clarabel.DefaultSolver(self._P, c, A, b, self._cones,
+                                                        self._settings)
+        t0 = time.perf_counter()
+        res = self._solver.solve()
+        self.solve_wall += time.perf_counter() - t0
+        status = str(res.status)
+        if status not in self.OK:
+            return None, status, float(res.solve_time)
+        x = np.asarray(res.x, float)
+        vals = {n: (self._off[n] + self._map[n] @ x).reshape(self._shape[n])
+                for n in self._map}
+        return vals, status, float(res.solve_time)
+
+
+def decay_disk_problem(system: PolytopicSystem, eps: float = 1e-7, P_lower: float = 1.0):
+    """The DPP problem of :func:`decay_disk_map` with cvxpy Parameters ``alpha``, ``R``.
+
+    Returns ``(problem, alpha, R, P, K)`` (the parameters and the variables ``P`` (n, n),
+    ``K = P L`` (n, p))."""
     import cvxpy as cp
-
-    from vehicle_observers.design.certify import certify_observer
 
     if system.discrete:
         raise ObserverArgumentError("decay_disk_map: continuous-time systems only")
-    t_start = time.perf_counter()
     n, p = system.n, system.p
     a_par, r_par = cp.Parameter(nonneg=True), cp.Parameter(nonneg=True)
     P = cp.Variable((n, n), symmetric=True)
@@ -539,24 +679,55 @@ def decay_disk_map(system: PolytopicSystem, alphas, radii, eps: float = 1e-7,
         cons.append(PA + PA.T + 2 * a_par * P << -eps * I)
         D = cp.bmat([[-r_par * P, PA], [PA.T, -r_par * P]])
         cons.append((D + D.T) / 2 << -eps * np.eye(2 * n))
-    prob = cp.Problem(cp.Minimize(0), cons)
+    return cp.Problem(cp.Minimize(0), cons), a_par, r_par, P, K
+
+
+def decay_disk_map(system: PolytopicSystem, alphas, radii, eps: float = 1e-7,
+                   P_lower: float = 1.0, **thresholds) -> dict:
+    """Feasibility map of ``Decay(alpha) + InRegion(disk(R))`` (common gain, continuous time)
+    on the grid ``alphas x radii``, the problem built and compiled **once** with cvxpy
+    Parameters ``alpha``, ``R`` (:class:`CompiledLMI`: each point only substitutes numbers
+    in the solver's data):
+
+        P - P_lower I > eps I,   He(P A_i - K C_i) + 2 alpha P < -eps I,
+        [[-R P, P A_i - K C_i], [(P A_i - K C_i)^T, -R P]] < -eps I     (i = 1..q).
+
+    Every solved point is certified from the data by :func:`certify_observers` (the LMIs
+    rebuilt in numpy from ``A_i, C_i``, ``L = P^-1 K``, ``P``; one batched eigenvalue call
+    for all points, each certificate the one :func:`certify_observer` gives alone).
+
+    Returns ``{"alpha", "R", "status" (na, nR) str ("infeasible" where the solver found no
+    point), "solver_s" (Clarabel's own ``solve_time``, summed), "solver_wall_s" (wall time
+    inside Clarabel's ``solve`` calls, summed), "build_s" (posing and compiling the
+    problem), "solve_s" (substituting, solving, recovering P and K: solver included),
+    "certify_s", "total_s"}`` [s]."""
+    from vehicle_observers.design.certify import certify_observers
+
+    t_start = time.perf_counter()
+    prob, a_par, r_par, P, K = decay_disk_problem(system, eps, P_lower)
+    compiled = CompiledLMI(prob, [a_par, r_par], {"P": P, "K": K})
+    t_built = time.perf_counter()
     alphas, radii = np.asarray(alphas, float), np.asarray(radii, float)
     status = np.full((len(alphas), len(radii)), "infeasible", dtype=object)
     solver = 0.0
+    items, where = [], []
+    decays = [Decay(float(a)) for a in alphas]
+    regions = [InRegion(disk(float(R))) for R in radii]
     for ia, a in enumerate(alphas):
         for ir, R in enumerate(radii):
-            a_par.value, r_par.value = float(a), float(R)
-            try:
-                prob.solve(solver="CLARABEL")
-            except cp.error.SolverError:
+            vals, _, st = compiled.solve((a, R))
+            solver += st
+            if vals is None:
                 continue
-            solver += float(prob.solver_stats.solve_time or 0.0)
-            if P.value is None or prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-                continue
-            syn = ObserverSynthesis(system, [Decay(float(a)), InRegion(disk(float(R)))],
-                                    P_lower=P_lower, eps=eps)
-            Pv = np.array(P.value)
-            L = np.linalg.solve(Pv, np.array(K.value))[None]
-            status[ia, ir] = certify_observer(syn, Pv, L, **thresholds).status
+            syn = ObserverSynthesis(system, [decays[ia], regions[ir]], P_lower=P_lower,
+                                    eps=eps)
+            Pv = vals["P"]
+            items.append((syn, Pv, np.linalg.solve(Pv, vals["K"])[None], None, None))
+            where.append((ia, ir))
+    t_solved = time.perf_counter()
+    for (ia, ir), cert in zip(where, certify_observers(items, **thresholds)):
+        status[ia, ir] = cert.status
+    t_end = time.perf_counter()
     return {"alpha": alphas, "R": radii, "status": status, "solver_s": solver,
-            "total_s": time.perf_counter() - t_start}
+            "solver_wall_s": compiled.solve_wall, "build_s": t_built - t_start, "solve_s": t_solved - t_built,
+            "certify_s": t_end - t_solved, "total_s": t_end - t_start}

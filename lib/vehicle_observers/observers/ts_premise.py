@@ -182,8 +182,13 @@ def ts_premises(vy, yaw_rate, delta, vx, params: LateralParams | None = None):
 
 # ================================================================ LMI Theorem 1 ===========
 @dataclass
-class ObserverDesign:
-    """Certified solution of Theorem 1 (33) in original coordinates.
+class Theorem1Design:
+    """Certified solution of Theorem 1 (33) in original coordinates (Yacine 2015).
+
+    Theorem 1's own result: the solution of the synthesis layer's call
+    (:func:`theorem1_synthesis`) mapped back from the scaled state, with ``c``, ``alpha``, the
+    scaling and the certificate of (33) in original coordinates. A general design of the
+    layer is :class:`vehicle_observers.design.synthesis.ObserverDesign`.
 
     P (4, 4); L (8, 4, 1) gains ``L_i = P^-1 M_i``; c, alpha scalars; ``alpha1, alpha2`` =
     extreme eigenvalues of P; ``certificate`` of the scaled LMIs (LMIDesign) and
@@ -263,7 +268,7 @@ def certify_original(ts: SectorTS, P, L, c, alpha) -> Certificate:
 
 def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
                     scale=STATE_SCALE, disk_radius: float | None = 600.0,
-                    p_max: float | None = 1e3, eps: float = 1e-2) -> ObserverDesign:
+                    p_max: float | None = 1e3, eps: float = 1e-2) -> Theorem1Design:
     """Solve Theorem 1 (33) for the 8-rule TS model (24) ``ts`` (the paper's bounds:
     ``vehicle_observers_papers.yacine_2015.constants.ts_model()``).
 
@@ -314,7 +319,7 @@ def design_theorem1(ts: SectorTS, alpha: float = 1e-3,
         w = cert_o.worst()
         raise CertificationError(f"Theorem 1: {w.name} fails in original coordinates "
                                  f"(margin {w.margin:.3e})", lmi=w.name, violation=-w.margin)
-    return ObserverDesign(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
+    return Theorem1Design(P, L, c, alpha, ts, np.diag(S), sol, cert_o, disk_radius,
                           solve_time, p_max)
 
 
@@ -490,7 +495,7 @@ def _observer(y, u, vx, vyp, dt, P, Av, Bv, Lv, zmin, zmax, x0, substeps):
     return X, Z, clipped
 
 
-def observer_step(design: ObserverDesign, x, z, u: float, y: float, dt: float):
+def observer_step(design: Theorem1Design, x, z, u: float, y: float, dt: float):
     """One RK4 step of the TS observer (31), Yacine 2015:
     ``xhat' = sum_i h_i(s_e) (A_i xhat + B_i u + L_i (y - C xhat))``, ``C xhat = xhat_2``.
 
@@ -538,7 +543,7 @@ class TSPremiseObserver(ObserverBase):
     """Yacine 2015 TS observer (31) with estimated premises, on the contract of
     :mod:`vehicle_observers.core.protocol`.
 
-    ``design``: the certified :class:`ObserverDesign` (Theorem 1); ``params``: the car of
+    ``design``: the certified :class:`Theorem1Design` (Theorem 1); ``params``: the car of
     the premises (default the paper's); ``dt`` [s]: the fixed sample period the observer
     integrates with (``run`` checks ``t`` against it, relative :data:`DT_RTOL`);
     ``substeps``: RK4 steps per sample. Inputs ``u = [delta, v_x, v_ye]`` (N, 3): road-wheel
@@ -553,10 +558,10 @@ class TSPremiseObserver(ObserverBase):
     input_names = ("delta_roadwheel_rad", "vx_mps", "vy_premise_mps")
     output_names = ("yaw_rate_radps",)
 
-    def __init__(self, design: ObserverDesign, dt: float, params: LateralParams | None = None,
+    def __init__(self, design: Theorem1Design, dt: float, params: LateralParams | None = None,
                  substeps: int = 1):
-        if not isinstance(design, ObserverDesign):
-            raise ObserverArgumentError(f"TSPremiseObserver: design must be an ObserverDesign, "
+        if not isinstance(design, Theorem1Design):
+            raise ObserverArgumentError(f"TSPremiseObserver: design must be a Theorem1Design, "
                                         f"got {type(design).__name__}")
         if not (np.ndim(dt) == 0 and np.isfinite(dt) and dt > 0):
             raise ObserverArgumentError(f"TSPremiseObserver: dt must be finite and > 0 s, got "
@@ -618,7 +623,7 @@ class TSPremiseObserver(ObserverBase):
                      Ff=Ff, Fr=Fr, z=Z, clipped=clipped, premises=premises)
 
 
-def run_observer(log: DriveLog, design: ObserverDesign, premises: PremiseEstimate | None = None,
+def run_observer(log: DriveLog, design: Theorem1Design, premises: PremiseEstimate | None = None,
                  vy_premise=None, x0=None, params: LateralParams | None = None,
                  substeps: int = 1) -> TSRun:
     """TS observer (31) (:class:`TSPremiseObserver` at ``dt = log.dt``) on a log; premise
@@ -640,3 +645,13 @@ def run_observer(log: DriveLog, design: ObserverDesign, premises: PremiseEstimat
                    premises=premises)
 
 
+def __getattr__(name):
+    """``ObserverDesign``, the former name of :class:`Theorem1Design` (the layer's general
+    design is :class:`vehicle_observers.design.synthesis.ObserverDesign`)."""
+    if name == "ObserverDesign":
+        import warnings
+
+        warnings.warn("ts_premise.ObserverDesign is now Theorem1Design", DeprecationWarning,
+                      stacklevel=2)
+        return Theorem1Design
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

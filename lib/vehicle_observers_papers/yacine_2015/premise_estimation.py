@@ -122,7 +122,7 @@ def hosmd_scaling(order: int = 3, L: float = 1.0, seed: int = 0, duration: float
             "theory_eps": [(n - i + 1) / (n + 1) for i in range(n + 1)]}
 
 
-def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1: float = 40.0,
+def theory_check(base: DriveLog, design: to.Theorem1Design, t0: float = 12.0, t1: float = 40.0,
                  x0=X0_WRONG, band_vy: float = 1e-3, params=None) -> dict:
     """Bound (34) against the error norm on a noise-free TS-exact run (Theorem 1 check).
 
@@ -179,7 +179,7 @@ def theory_check(base: DriveLog, design: to.ObserverDesign, t0: float = 12.0, t1
 
 
 def noise_study(levels=(0.0, 1.0, 3.0), seed: int = 0, quick: bool = False,
-                design: to.ObserverDesign | None = None, vision_rate_hz=None,
+                design: to.Theorem1Design | None = None, vision_rate_hz=None,
                 v_max: float = V_MAX, L_y: float = to.L_YL, L_psi: float = to.L_PSIL) -> list[dict]:
     """Estimation metrics for several ``noise_scale`` values (same seed, same truth)."""
     design = design or to.design_theorem1(yacine2015.ts_model())
@@ -319,7 +319,7 @@ def scaled_mismatch(fraction: float, mismatch=None) -> dict:
     return out
 
 
-def mismatch_study(design: to.ObserverDesign, seed: int = 0, quick: bool = False,
+def mismatch_study(design: to.Theorem1Design, seed: int = 0, quick: bool = False,
                    noise_scale: float = 1.0, v_max: float = V_MAX, mismatch=None,
                    fractions=(0.0, 1.0)) -> list[dict]:
     """The same emulated lap, same seed, driven by cars that are ``fraction`` of the way from

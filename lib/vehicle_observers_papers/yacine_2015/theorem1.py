@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 from vehicle_observers.models.ts import SectorTS, memberships
-from vehicle_observers.observers.ts_premise import ObserverDesign
+from vehicle_observers.observers.ts_premise import Theorem1Design
 
 
 def premise_mismatch(ts: SectorTS, x_true, u, z_true, z_est):
@@ -36,7 +36,7 @@ def premise_mismatch(ts: SectorTS, x_true, u, z_true, z_est):
     return full, full[:, 2:]
 
 
-def bound_34(t, e0_norm: float, delta_norm, T: float, design: ObserverDesign) -> dict:
+def bound_34(t, e0_norm: float, delta_norm, T: float, design: Theorem1Design) -> dict:
     """Right-hand sides of (34) as reconstructed from (40)-(45) (module docstring).
 
     ``delta_norm`` (N,) = ``||delta(t_k)||``. Returns ``iss`` (all t, running max of delta),
