@@ -54,6 +54,20 @@ def test_element_wise_and_scalar_checks_do_not_make_it_inconclusive():
     assert Certificate([]).status == "certified"
 
 
+@pytest.mark.parametrize("entry, status", [(-1.3e-15, "inconclusive"), (-5e-13, "inconclusive"),
+                                           (-1e-11, "violated"), (-1e-3, "violated"),
+                                           (0.0, "certified")])
+def test_round_off_below_zero_in_an_element_wise_check_is_inconclusive(entry, status):
+    """A structural zero computed as -1.3e-15 (e.g. an entry of S^-1 D S) has an unknown sign:
+    inconclusive, not violated; a shortfall above NONNEG_ROUNDOFF (1e-12 of the largest entry,
+    here 3) is a violation. Catches an entry-wise check without a round-off band, and one
+    whose band is so wide it hides real violations."""
+    M = np.array([[0.5, entry * 3.0], [3.0, 1.0]])
+    c = Certificate([check_matrix("R>=0", M, "nonneg"), check_matrix("P>0", np.eye(2), "pos")])
+    assert c.status == status
+    assert (status != "violated") == c.ok
+
+
 def test_status_of_a_solved_lyapunov_design():
     """A well-posed Lyapunov LMI solved by the solver is certified."""
     A = np.array([[-1.0, 2.0], [0.0, -3.0]])

@@ -153,7 +153,19 @@ class ConstraintCheck:
 
     @property
     def ok(self) -> bool:
-        return self.margin > 0 if self.kind in ("neg", "pos") else self.margin >= 0
+        """The required sign holds, or (element-wise checks) an entry misses it only at
+        round-off level (:attr:`roundoff`; the certificate is then ``"inconclusive"``)."""
+        if self.kind in ("neg", "pos"):
+            return self.margin > 0
+        return self.margin >= 0 or self.roundoff
+
+    @property
+    def roundoff(self) -> bool:
+        """An element-wise (``"nonneg"``) check whose smallest entry is negative by less than
+        :data:`NONNEG_ROUNDOFF` of the matrix's largest entry: its sign is not known (e.g. a
+        structural zero of ``S^-1 D S`` computed as -1.3e-15)."""
+        return (self.kind == "nonneg" and self.margin < 0
+                and self.relative >= -NONNEG_ROUNDOFF)
 
 
 #: Smallest relative margin (margin / largest absolute eigenvalue of the same matrix) that a
@@ -168,6 +180,13 @@ MIN_RELATIVE_MARGIN = 1e-9
 #: log10(cond) of the 16 digits of double precision; above 1e8 fewer than 8 remain, below the
 #: solver's own accuracy, so the certified matrix is not the one the gains were computed from.
 MAX_CONDITION = 1e8
+#: Largest relative shortfall ``-min(M) / max|M|`` of an element-wise (``"nonneg"``) check that
+#: is read as round-off, not as a violation: entries formed by a few products and sums of
+#: double-precision matrices (``A - L C``, ``S^-1 D S``) carry relative errors of
+#: ``n eps ||.||`` (about 1e-15 for the sizes here, more after an ill-conditioned ``S``); 1e-12
+#: (about 5000 eps) leaves room for that and is far below any deliberate margin. Such a
+#: certificate is ``"inconclusive"``: the sign of that entry is not known.
+NONNEG_ROUNDOFF = 1e-12
 #: the values of :attr:`Certificate.status`
 STATUSES = ("certified", "inconclusive", "violated")
 
@@ -180,7 +199,8 @@ class Certificate:
     signs mean something numerically: ``"violated"`` (a constraint fails), ``"inconclusive"``
     (all signs right, but the smallest relative margin is below ``min_relative`` (default
     :data:`MIN_RELATIVE_MARGIN`) or a positive-definite constraint matrix has a condition
-    number above ``max_cond`` (default :data:`MAX_CONDITION`)), else ``"certified"``. The two
+    number above ``max_cond`` (default :data:`MAX_CONDITION`), or an element-wise check misses
+    its sign only at round-off level, :data:`NONNEG_ROUNDOFF`), else ``"certified"``. The two
     thresholds are per certificate: :meth:`LMIDesign.solve` and
     :func:`vehicle_observers.design.certify.certify_observer` take them per call.
     """
@@ -211,7 +231,8 @@ class Certificate:
         if not self.ok:
             return "violated"
         rel = self.min_relative_margin
-        if (not np.isnan(rel) and rel < self.min_relative) or self.max_condition > self.max_cond:
+        if (not np.isnan(rel) and rel < self.min_relative) or self.max_condition > self.max_cond \
+                or any(c.roundoff for c in self.checks):
             return "inconclusive"
         return "certified"
 
