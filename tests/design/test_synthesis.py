@@ -49,8 +49,8 @@ def test_planted_wrong_vertex_in_the_layer_is_caught(monkeypatch):
     system = PolytopicSystem([A0, -np.eye(2)], C1)
     real = synthesis.pair_matrix
 
-    def wrong(c, s, P, K, i, V):
-        return real(c, s, P, K, s.q - 1, V)           # always the last vertex
+    def wrong(c, s, P, K, i, V, **kw):
+        return real(c, s, P, K, s.q - 1, V, **kw)     # always the last vertex
     monkeypatch.setattr(synthesis, "pair_matrix", wrong)
     syn = ObserverSynthesis(system, [Decay(0.0)], gain_bound=1e-6)
     with pytest.raises(CertificationError, match="decay\\[1\\]"):

@@ -67,6 +67,7 @@ from vehicle_observers.design.lmi import (
     MIN_RELATIVE_MARGIN,
     LMIDesign,
     LMISolution,
+    Values,
     bmat,
     disk,
 )
@@ -105,14 +106,24 @@ def decay_region(system: PolytopicSystem, c: Decay):
 
 
 # ---- cvxpy / numpy builders of one constraint at one pair ----------------------------------
-def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V):
-    """Matrix of constraint ``c`` at vertex ``i`` with gain variable ``K = P L_j`` (cvxpy)."""
+def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V, rate=None):
+    """Matrix of constraint ``c`` at vertex ``i`` with gain variable ``K = P L_j`` (cvxpy).
+
+    ``rate``: a cvxpy Parameter standing for the decay requirement of a :class:`Decay` or
+    :class:`InputToState` ``c`` instead of its number (:class:`CompiledBisection`): ``alpha``
+    [1/s] in continuous time and in ``InputToState``; for a discrete-time ``Decay`` the radius
+    ``rho = exp(-alpha dt)`` of the disk ``[[-rho P, P A - K C], [*, -rho P]] < 0`` (the
+    matrix of :func:`decay_region`, in which ``rho`` enters affinely)."""
     A, C, E, D, H = system.A[i], system.C[i], system.E[i], system.D[i], system.H
     PA = P @ A - K @ C
     if isinstance(c, Decay):
         if system.discrete:
+            if rate is not None:
+                return bmat([[-rate * P, PA], [PA.T, -rate * P]])
             return decay_region(system, c).lmi(P, PA)
         M = PA + PA.T
+        if rate is not None:
+            return M + 2.0 * rate * P
         return M + 2.0 * c.alpha * P if c.alpha else M
     if isinstance(c, InRegion):
         return c.region.lmi(P, PA)
@@ -131,7 +142,9 @@ def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V):
     if isinstance(c, InputToState):
         cc = V["c"] if c.c is None else c.c
         X = A.T @ P + P @ A - K @ C - C.T @ K.T
-        if c.alpha:
+        if rate is not None:
+            X = X + rate * P
+        elif c.alpha:
             X = X + c.alpha * P
         EP = E.T @ P if not np.any(D) else PE.T
         return bmat([[X, PE], [EP, -cc * np.eye(E.shape[1])]])
@@ -319,9 +332,11 @@ class ObserverSynthesis:
         return ObserverSynthesis(**args)
 
     # ---- the LMIs -------------------------------------------------------------------------
-    def lmi_design(self) -> LMIDesign:
+    def lmi_design(self, rate=None) -> LMIDesign:
         """The :class:`LMIDesign` of this synthesis (variables ``P``, ``K0..``, ``gamma``,
-        ``c``; constraints named ``label[i]`` / ``label[i,j]``)."""
+        ``c``; constraints named ``label[i]`` / ``label[i,j]``). ``rate``: a cvxpy Parameter
+        in place of the decay requirement of the (single) :class:`Decay` /
+        :class:`InputToState` constraint (:func:`pair_matrix`)."""
         s, n, p, eps = self.system, self.system.n, self.system.p, self.eps
         d = LMIDesign(self.name, eps=eps)
         (d.diagonal if self.P_kind == "diagonal" else d.symmetric)("P", n)
@@ -348,7 +363,8 @@ class ObserverSynthesis:
             def build(V, c=c, combo=combo):
                 M = None
                 for coef, i, j in combo:
-                    G = pair_matrix(c, s, V.P, V[gn[j]], i, V)
+                    G = pair_matrix(c, s, V.P, V[gn[j]], i, V, rate=rate if isinstance(
+                        c, (Decay, InputToState)) else None)
                     G = G if coef == 1.0 else coef * G
                     M = G if M is None else M + G
                 return M
@@ -392,8 +408,6 @@ class ObserverSynthesis:
         Raises :class:`InfeasibleDesign` naming the LMIs when the solver finds no point, and
         :class:`CertificationError` naming the LMI and the vertex when the data certificate
         says "violated" (unless ``raise_on_violation=False``)."""
-        from vehicle_observers.design.certify import certify_observer
-
         if objective not in (None, "gamma", "c"):
             raise ObserverArgumentError(f"{self.name}: objective must be None, 'gamma' or 'c', "
                                         f"got {objective!r}")
@@ -405,6 +419,14 @@ class ObserverSynthesis:
         obj = None if objective is None else (lambda V: V[objective])
         sol = d.solve(objective=obj, raise_on_failure=raise_on_violation,
                       min_relative_margin=min_relative_margin, max_condition=max_condition)
+        return self._design(sol, min_relative_margin, max_condition, raise_on_violation)
+
+    def _design(self, sol: LMISolution, min_relative_margin: float, max_condition: float,
+                raise_on_violation: bool) -> ObserverDesign:
+        """The :class:`ObserverDesign` of a solver's solution: gains ``L_j = P^-1 K_j`` and
+        the data certificate."""
+        from vehicle_observers.design.certify import certify_observer
+
         P = sol["P"]
         L = np.array([np.linalg.solve(P, sol[f"{self.gain_name}{j}"])
                       for j in range(self.n_gains)])
@@ -439,12 +461,21 @@ class ObserverSynthesis:
             return None
 
     def maximise_decay(self, hi: float, lo: float = 0.0, tol: float = 1e-3,
-                       backoff: float = 0.05, **kw) -> OptimisedDesign:
+                       backoff: float = 0.05, compiled: bool = True, **kw) -> OptimisedDesign:
         """Largest decay rate ``alpha`` of the (single) :class:`Decay` or
         :class:`InputToState` constraint, by bisection on ``[lo, hi]`` to relative/absolute
         ``tol`` (``He(P A - K C) + 2 alpha P < 0`` is a generalised eigenvalue problem:
         feasibility is monotone in ``alpha``), then the design at ``alpha (1 - backoff)``
-        (certified with a real margin). ``kw``: thresholds of :meth:`solve`."""
+        (certified with a real margin). ``kw``: thresholds of :meth:`solve`.
+
+        A step is feasible when the solver finds a point whose data certificate is not
+        "violated". ``compiled=True``: the steps solve one problem compiled once with the
+        decay requirement as a cvxpy Parameter (:class:`CompiledBisection`: cvxpy's
+        canonicalisation once for the whole bisection, then per step one matrix-vector
+        product and a Clarabel solve on the substituted data); ``False``: each step poses and
+        canonicalises its own problem (:meth:`solve`). Both solve the same conic problem at
+        each step (data equal to round-off); the backed-off design is solved by
+        :meth:`solve` either way, so it is the same array for the same optimum."""
         who = f"{self.name}: maximise_decay"
         tgt = [c for c in self.constraints if isinstance(c, (Decay, InputToState))]
         if len(tgt) != 1:
@@ -458,17 +489,23 @@ class ObserverSynthesis:
         def at(a):
             return self._with(c0, dataclasses.replace(c0, alpha=a))
 
-        best = self._feasible(at(lo), raise_on_violation=False, **kw)
+        if compiled:
+            feasible = CompiledBisection(self).solve
+        else:
+            def feasible(a, **th):
+                return self._feasible(at(a), raise_on_violation=False, **th)
+
+        best = feasible(lo, **kw)
         if best is None or best.status == "violated":
             raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}",
                                    lmi=c0.label)
         a_lo, a_hi = lo, hi
-        top = self._feasible(at(hi), raise_on_violation=False, **kw)
+        top = feasible(hi, **kw)
         if top is not None and top.status != "violated":
             a_lo, best = hi, top
         while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
             mid = 0.5 * (a_lo + a_hi)
-            des = self._feasible(at(mid), raise_on_violation=False, **kw)
+            des = feasible(mid, **kw)
             if des is not None and des.status != "violated":
                 a_lo, best = mid, des
             else:
@@ -657,6 +694,90 @@ class CompiledLMI:
         vals = {n: (self._off[n] + self._map[n] @ x).reshape(self._shape[n])
                 for n in self._map}
         return vals, status, float(res.solve_time)
+
+
+class CompiledBisection:
+    """The feasibility problem of an :class:`ObserverSynthesis` compiled once
+    (:class:`CompiledLMI`) with the decay requirement of its single :class:`Decay` /
+    :class:`InputToState` constraint as a cvxpy Parameter, for the bisection of
+    :meth:`ObserverSynthesis.maximise_decay`.
+
+    The Parameter is ``alpha`` [1/s] (continuous time: ``He(P A_i - K_j C_i) + 2 alpha P``;
+    ``InputToState``: ``... + alpha P``) or, for a discrete-time ``Decay``, the disk radius
+    ``rho = exp(-alpha dt)`` of ``[[-rho P, P A_i - K_j C_i], [*, -rho P]] < 0``: each enters
+    the LMIs affinely, so the problem is DPP and the solver's data is affine in it. Every
+    other constraint, the normalisations, the strictness ``eps`` and the gain bound are posed
+    by :meth:`ObserverSynthesis.lmi_design` exactly as :meth:`ObserverSynthesis.solve` poses
+    them. :meth:`solve` returns what :meth:`ObserverSynthesis.solve` returns at that ``alpha``
+    (``raise_on_violation=False``): the builders' certificate and the data certificate
+    (:func:`~vehicle_observers.design.certify.certify_observer`) of the solution, or ``None``
+    where the solver finds no point.
+
+    Parameters
+    ----------
+    synthesis : the design; its one ``Decay`` / ``InputToState`` constraint is varied.
+    reuse : ``False`` (default): a new Clarabel solver per step on the substituted data, so
+        each step's iterates are those of :meth:`ObserverSynthesis.solve` on the same problem
+        (the data agree to round-off; the point returned by a feasibility problem is one of
+        many, and a solver updated in place keeps the equilibration of its first data, which
+        moves that point by about 1 % of ``P``). ``True``: the solver updated in place
+        (``CompiledLMI.reuse``).
+    """
+
+    #: Clarabel's statuses with a primal point, and cvxpy's name of each (cvxpy's
+    #: ``CLARABEL.STATUS_MAP``: a point is returned and certified for these)
+    STATUS = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate",
+              "MaxIterations": "user_limit", "MaxTime": "user_limit"}
+
+    def __init__(self, synthesis: ObserverSynthesis, reuse: bool = False):
+        import cvxpy as cp
+
+        tgt = [c for c in synthesis.constraints if isinstance(c, (Decay, InputToState))]
+        if len(tgt) != 1:
+            raise ObserverArgumentError(f"{synthesis.name}: CompiledBisection needs exactly one "
+                                        "Decay or InputToState constraint to vary")
+        self.synthesis, self.target = synthesis, tgt[0]
+        self.discrete = isinstance(self.target, Decay) and synthesis.system.discrete
+        self.rate = cp.Parameter(nonneg=True, name="rho" if self.discrete else "alpha")
+        d = synthesis.lmi_design(rate=self.rate)
+        self._exprs, self._raw = d._vars, d._raw
+        prob = cp.Problem(cp.Minimize(0), d._cvx_constraints())
+        self.compiled = CompiledLMI(prob, [self.rate],
+                                    {k: r for k, r in d._raw.items() if r is not None})
+        self.compiled.OK = tuple(self.STATUS)
+        self.compiled.reuse = bool(reuse)
+
+    def value(self, alpha: float) -> float:
+        """The Parameter's value at decay rate ``alpha``: ``alpha``, or ``exp(-alpha dt)``
+        (discrete-time ``Decay``, as :func:`decay_region`)."""
+        if self.discrete:
+            return float(np.exp(-alpha * self.synthesis.system.dt))
+        return float(alpha)
+
+    def solve(self, alpha: float, min_relative_margin: float = MIN_RELATIVE_MARGIN,
+              max_condition: float = MAX_CONDITION) -> ObserverDesign | None:
+        """The design at decay rate ``alpha`` (its synthesis the original one with that
+        ``alpha``), certified from the data; ``None`` if the solver finds no point."""
+        syn = self.synthesis._with(self.target, dataclasses.replace(self.target, alpha=alpha))
+        t0 = time.perf_counter()
+        vals, status, own = self.compiled.solve((self.value(alpha),))
+        wall = time.perf_counter() - t0
+        if vals is None:
+            return None
+        values = Values()
+        for k, expr in self._exprs.items():
+            raw = self._raw[k]
+            if raw is None:
+                values[k] = np.array(expr, dtype=float)
+            elif raw is expr:
+                values[k] = np.array(vals[k], dtype=float)
+            else:                                # e.g. a diagonal P = diag(d)
+                raw.value = vals[k]
+                values[k] = np.array(expr.value, dtype=float)
+        d = syn.lmi_design()
+        cert = d.certify(values, min_relative_margin, max_condition)
+        sol = LMISolution(d.name, values, cert, self.STATUS[status], wall, None, own)
+        return syn._design(sol, min_relative_margin, max_condition, False)
 
 
 def decay_disk_problem(system: PolytopicSystem, eps: float = 1e-7, P_lower: float = 1.0):
