@@ -301,8 +301,9 @@ def main(argv=None) -> int:
         print("the two maps disagree on the counts", file=sys.stderr)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"designs": rows, "maximise_decay": bis, "map": m, "parametric_map_reference": ref,
-                               "parametric_map": pm}, indent=1))
+    out.write_text(json.dumps({"designs": rows, "maximise_decay": bis, "map": m,
+                               "parametric_map_reference": ref, "parametric_map": pm},
+                              indent=1))
     return 0
 
 
