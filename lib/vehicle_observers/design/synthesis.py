@@ -42,7 +42,10 @@ boundary of the feasible set, where the certificate is at round-off level ("inco
 The optimum is found first (bisection on ``alpha``, a generalised eigenvalue problem; or
 ``min gamma``), then the requirement is backed off by a stated fraction (``alpha (1 - b)``,
 ``gamma (1 + b)``) and the feasibility problem re-solved: the returned design has a real
-margin, and the result carries the optimum, the certified design and the margin.
+margin, and the result carries the optimum, the certified design and the margin. The
+bisection solves one problem compiled once with the decay requirement as a cvxpy Parameter
+(:class:`CompiledBisection`); ``minimise`` is one optimisation and one feasibility solve, no
+bisection.
 """
 
 from __future__ import annotations
