@@ -12,7 +12,7 @@ def test_compiled_and_reference_maps_agree_and_file_is_written(tmp_path, capsys)
     (catches a compiled map that drops or invents feasible points), and the JSON holds the
     split of the compiled map's time."""
     out = tmp_path / "t.json"
-    assert lmi_layer.main(["--points", "12", "--out", str(out)]) == 0
+    assert lmi_layer.main(["--points", "12", "--repeat", "1", "--out", str(out)]) == 0
     doc = json.loads(out.read_text())
     ref, pm = doc["parametric_map_reference"], doc["parametric_map"]
     assert (ref["certified"], ref["infeasible"]) == (pm["certified"], pm["infeasible"])
@@ -21,9 +21,19 @@ def test_compiled_and_reference_maps_agree_and_file_is_written(tmp_path, capsys)
     for k in ("build_s", "solve_s", "certify_s", "solver_s", "solver_wall_s"):
         assert pm[k] > 0
     assert "disagree" not in capsys.readouterr().err
+    # each bisection timed both ways reaches the same optimum through as many solver calls
+    # (catches a compiled bisection that skips or adds steps, or a clock that misses calls)
+    assert len(doc["maximise_decay"]) == len(lmi_layer.bisection_designs())
+    for row in doc["maximise_decay"].values():
+        b, a = row["before"], row["after"]
+        assert b["optimum"] == a["optimum"] and b["status"] == a["status"] == "certified"
+        assert b["solver_calls"] == a["solver_calls"] >= 10
+        assert a["solver_wall_s"] > 0 and a["total_s"] > a["solver_wall_s"]
 
 
 def test_bad_points_exit_2(capsys):
-    """Too few points is refused in one line with exit status 2."""
+    """Too few points, or no timed run, is refused in one line with exit status 2."""
     assert lmi_layer.main(["--points", "2"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert lmi_layer.main(["--repeat", "0"]) == 2
     assert capsys.readouterr().err.count("\n") == 1

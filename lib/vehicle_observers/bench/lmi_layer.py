@@ -1,7 +1,8 @@
 """Speed of the observer-synthesis layer (:mod:`vehicle_observers.design.synthesis`): solver
 time against total time per design, and a feasibility map.
 
-    python -m vehicle_observers.bench.lmi_layer [--points N] [--out build/timings/lmi_layer.json]
+    python -m vehicle_observers.bench.lmi_layer [--points N] [--repeat R]
+        [--out build/timings/lmi_layer.json]
 
 For each single design: ``total`` (building the LMIs, cvxpy's canonicalisation, the solver, the data
 certificate), ``solver`` (Clarabel's own time, ``LMISolution.solver_seconds``),
@@ -254,22 +255,28 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m vehicle_observers.bench.lmi_layer")
     ap.add_argument("--points", type=int, default=1000)
     ap.add_argument("--out", default="build/timings/lmi_layer.json")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="timed runs of each design and bisection (the fastest is kept)")
     args = ap.parse_args(argv)
     if args.points < 4:
         print("--points must be >= 4", file=sys.stderr)
+        return 2
+    if args.repeat < 1:
+        print("--repeat must be >= 1", file=sys.stderr)
         return 2
     rows = {}
     for _name, syn, obj in designs()[:1]:        # warm-up: imports and first canonicalisation
         time_design(syn, obj, repeat=1)
     for name, syn, obj in designs():
-        rows[name] = time_design(syn, obj)
+        rows[name] = time_design(syn, obj, args.repeat)
         r = rows[name]
         print(f"{name:<24} total/solver = {r['ratio']:5.2f}  cvxpy solve/solver = "
               f"{r['problem_solve_s'] / r['solver_s']:5.2f}  certify/total = "
               f"{r['certify_s'] / r['total_s']:.3f}  ({r['status']})")
     bis = {}
     for name, syn, hi in bisection_designs():
-        before, after = time_bisection(syn, hi, False), time_bisection(syn, hi, True)
+        before = time_bisection(syn, hi, False, args.repeat)
+        after = time_bisection(syn, hi, True, args.repeat)
         bis[name] = {"before": before, "after": after}
         same = "same optimum" if before["optimum"] == after["optimum"] else \
             f"optimum {before['optimum']:.6g} -> {after['optimum']:.6g}"
