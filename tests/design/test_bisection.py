@@ -6,7 +6,13 @@ import cvxpy as cp
 import numpy as np
 import pytest
 from vehicle_observers.core.errors import InfeasibleDesign
-from vehicle_observers.design.constraints import Decay, InputToState, InRegion, Metzler
+from vehicle_observers.design.constraints import (
+    BoundedReal,
+    Decay,
+    InputToState,
+    InRegion,
+    Metzler,
+)
 from vehicle_observers.design.lmi import disk, sector
 from vehicle_observers.design.synthesis import CompiledBisection, ObserverSynthesis
 from vehicle_observers.design.system import PolytopicSystem
@@ -22,10 +28,11 @@ def _random_vertices(q, n, seed):
 
 
 def _cases():
-    """``(name, synthesis, hi)``: continuous time with a pole region, PDC with
+    """``(name, synthesis, hi)``: continuous time with two pole regions, PDC with
     vertex-dependent ``C_i`` under both relaxations, discrete time (the disk radius
-    ``exp(-alpha dt)`` as the Parameter) with a region, input-to-state with a free ``c`` and a disk,
-    a diagonal ``P`` with a Metzler constraint and a gain bound."""
+    ``exp(-alpha dt)`` as the Parameter), input-to-state with a free ``c`` and a disk, a decay
+    rate under a fixed H-infinity level (``P > 0`` unnormalised), a diagonal ``P`` with a
+    Metzler constraint and a gain bound."""
     A3, rng = _random_vertices(3, 3, 4)
     C3 = [rng.normal(size=(1, 3)) for _ in range(3)]
     pdc = PolytopicSystem(A3, C3)
@@ -42,6 +49,9 @@ def _cases():
         ("pdc tuan", ObserverSynthesis(pdc, [Decay()], gains="pdc", relaxation="tuan"), 20.0),
         ("discrete decay", ObserverSynthesis(dsys, [Decay()]), 40.0),
         ("iss free c", ObserverSynthesis(iss, [InputToState(c=None), InRegion(disk(12.0))]),
+         30.0),
+        ("decay at a fixed hinf level",
+         ObserverSynthesis(iss, [Decay(), BoundedReal(gamma=0.5), InRegion(disk(12.0))]),
          30.0),
         ("metzler diagonal P", ObserverSynthesis(PolytopicSystem(Am, C1),
                                                  [Decay(), Metzler(margin=1e-6)],
