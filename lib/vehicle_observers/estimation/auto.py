@@ -4,24 +4,32 @@ measured channels only.
 Candidates (:func:`candidates`): the registered causal estimators that are not baselines,
 apply to the log (their columns and vehicle keys), give ``v_y`` and ``r`` and run per sample
 without an LMI design (:data:`CANDIDATES`; ``candidates=`` overrides). Each is run on the
-whole log; at sample ``k`` the estimate of the candidate with the smallest **running
-measured-channel score** up to ``k - 1`` is output (causal: the score at ``k`` never decides
-sample ``k``).
+whole log; the output at sample ``k`` is decided by the candidates' **running
+measured-channel scores** up to ``k - 1`` (causal: the score at ``k`` never decides sample
+``k``), by one of two rules (:data:`RULES`, option ``rule``):
+
+* ``select`` (default): the estimate of the candidate with the lowest score; a candidate
+  replaces the current one only when its score is below ``(1 - HYSTERESIS)`` times the
+  current's (no chattering between near-equal candidates); ``vy_std_mps`` the chosen
+  candidate's calibrated std;
+* ``mix``: IMM-style model probabilities (:func:`weights`: the likelihood of the scores with
+  a fixed share, Blom & Bar-Shalom 1988) and the weighted mean of the estimates, with the
+  mixture's std (:func:`combine`).
 
 Score (a running model-selection rule on normalised residuals, the prequential principle
 of Dawid 1984, J. R. Stat. Soc. A 147): for each candidate, the lateral acceleration of the
 vehicle file's single-track model at its estimate against the measured ``a_y`` (less a slow
 offset, :data:`vehicle_observers.estimation.calibration.BIAS_TAU_S`) and its yaw rate
-against the measured one, each squared and divided by the channel's white-noise variance
-(:func:`~vehicle_observers.data.identification.white_noise_std`), summed, and averaged
-causally with the time constant :data:`TAU_S`. A candidate replaces the current one only
-when its score is below ``(1 - HYSTERESIS)`` times the current's (no chattering between
-near-equal candidates). The output's ``vy_std_mps`` is the chosen candidate's calibrated
-std; ``info["auto_line"]`` says which candidate was used on what share of the rows and why.
+against the measured one, each squared and divided by the channel's running white-noise
+variance (:func:`running_noise_var`, causal), summed, and averaged causally with the time
+constant :data:`TAU_S`. ``info["auto_line"]`` says which candidate was used on what share of
+the rows, and the scores that decided.
 
 What it cannot do: a stiffness error moves ``v_y`` without changing ``r`` and ``a_y``
 (:mod:`vehicle_observers.estimation.calibration`), so the score cannot rank candidates by
-that error; the benchmark compares ``auto`` with every fixed choice.
+that error, and a candidate with more model terms (``adaptive-ekf``) fits the measured
+channels better whether or not its ``v_y`` is better; the benchmark compares ``auto`` with
+every fixed choice.
 """
 
 from __future__ import annotations

@@ -181,7 +181,13 @@ def compliance_posterior(vy, r, log: DriveLog, vehicle):
     squares solution (floored by the propagated sensor noise), samples
     :data:`ID_CORR_S` apart counted as independent; prior ``c ~ N(1, rel^2 / 3)`` per axle
     (the stiffness box taken uniform), ``b ~ N(0, ID_OFFSET_PRIOR^2)``. Causal: row ``k`` uses
-    rows ``<= k`` (evaluated at :data:`ID_RATE_HZ`, held in between).
+    rows ``<= k`` (evaluated at :data:`ID_RATE_HZ`, held in between), except the sensor-noise
+    floor of the residual variance (the whole log's white-noise std of ``delta`` and ``r``).
+
+    What it can tell: the understeer combination of the two compliances is fixed by steady
+    cornering, the axles apart by transients; a common scale of both on a car near neutral
+    steer is seen by neither (it stays near the prior), nor is an accelerometer's roll gain
+    told from a stiffness error (both scale the measured forces).
 
     Returns ``(mean, var)``, each (N, 3) for ``(c_f, c_r, b)``: the posterior mean and the
     posterior variances (diagonal of the covariance). Without an a_y channel: the prior."""
