@@ -91,15 +91,19 @@ ID_TAU_S = 60.0
 #: correlation time [s] of the regression's residuals: samples closer than this count as one
 #: (the yaw mode's transients, hence the model error they leave, last about a second)
 ID_CORR_S = 1.0
+#: independent samples (:data:`ID_CORR_S` apart) the regression needs before it moves from the
+#: prior (with fewer, its residual mean square is fitted to the few rows it has)
+ID_MIN_INDEP = 5.0
 #: speed [m/s] below which a row does not enter the regression (the slips divide by v_x)
 ID_VX_MIN = 5.0
 #: prior std [rad] of the regression's intercept (a steering or a_y offset; 1 deg)
 ID_OFFSET_PRIOR = math.radians(1.0)
 #: rows per posterior evaluation are thinned to at most this rate [Hz] (held in between)
 ID_RATE_HZ = 10.0
-#: the tyre's local slope is floored at this share of its zero-slip slope (past the peak the
-#: nominal inverse is undefined)
-ID_MIN_SLOPE = 0.2
+#: rows where either tyre's local slope at the estimate is below this share of its zero-slip
+#: slope do not enter the regression (near and past the peak the nominal inverse is
+#: ill-conditioned or undefined: a Newton step there gave negative compliances on a lap)
+ID_MIN_SLOPE = 0.5
 
 
 def _ewm(x: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
@@ -141,15 +145,16 @@ def residual_variance(vy, r, log: DriveLog, vehicle) -> np.ndarray:
     return gain ** 2 * np.maximum(power - R_ay, 0.0)
 
 
-def _local_inverse(tyre, alpha, F) -> np.ndarray:
+def _local_inverse(tyre, alpha, F) -> tuple[np.ndarray, np.ndarray]:
     """The slip [rad] the tyre ``tyre`` needs for the force ``F`` [N], one Newton step from
-    ``alpha`` [rad] (N,) on its curve (local slope floored at :data:`ID_MIN_SLOPE` of the
-    zero-slip slope)."""
+    ``alpha`` [rad] (N,) on its curve, and where it is usable: the local slope at least
+    :data:`ID_MIN_SLOPE` of the zero-slip slope (N,) bool."""
     C0 = float(tyre.cornering_stiffness)
     h = 1e-4
     slope = (tyre.force(alpha + h) - tyre.force(alpha - h)) / (2 * h)
+    ok = slope >= ID_MIN_SLOPE * C0
     slope = np.maximum(slope, ID_MIN_SLOPE * C0)
-    return alpha + (F - tyre.force(alpha)) / slope
+    return alpha + (F - tyre.force(alpha)) / slope, ok
 
 
 def measured_axle_forces(log: DriveLog, vehicle, tau: float = ID_SMOOTH_S):
@@ -176,9 +181,9 @@ def compliance_posterior(vy, r, log: DriveLog, vehicle):
     operating point (module docstring, term 2). Regression, per row in motion (``v_x >=``
     :data:`ID_VX_MIN`): ``delta - L r_meas / v_x = c_f phi_f - c_r phi_r + b``, ``phi`` the
     slip the file's tyre needs for the measured axle force (:func:`measured_axle_forces`,
-    :func:`_local_inverse`); every channel low-passed with :data:`ID_SMOOTH_S`; sums
-    forgotten with :data:`ID_TAU_S`; noise variance the residual mean square at the least-
-    squares solution (floored by the propagated sensor noise), samples
+    :func:`_local_inverse`; rows near a tyre's peak left out); every channel low-passed with
+    :data:`ID_SMOOTH_S`; sums forgotten with :data:`ID_TAU_S`; noise variance the residual
+    mean square at the least-squares solution (floored by the propagated sensor noise), samples
     :data:`ID_CORR_S` apart counted as independent; prior ``c ~ N(1, rel^2 / 3)`` per axle
     (the stiffness box taken uniform), ``b ~ N(0, ID_OFFSET_PRIOR^2)``. Causal: row ``k`` uses
     rows ``<= k`` (evaluated at :data:`ID_RATE_HZ`, held in between), except the sensor-noise
@@ -210,30 +215,36 @@ def compliance_posterior(vy, r, log: DriveLog, vehicle):
     d, rm, vye, re = sm(log.delta), sm(log.yaw_rate), sm(vy), sm(r)
     a_f = d - (vye + p.a_f * re) / vxs
     a_r = -(vye - p.a_r * re) / vxs
-    phi_f = _local_inverse(p.tire_f, a_f, F[0])
-    phi_r = _local_inverse(p.tire_r, a_r, F[1])
+    phi_f, ok_f = _local_inverse(p.tire_f, a_f, F[0])
+    phi_r, ok_r = _local_inverse(p.tire_r, a_r, F[1])
     y = d - L * rm / vxs
     X = np.column_stack([phi_f, -phi_r, np.ones(N)])
-    w = ((np.abs(vx) >= ID_VX_MIN) & np.all(np.isfinite(X), axis=1)
+    w = ((np.abs(vx) >= ID_VX_MIN) & ok_f & ok_r & np.all(np.isfinite(X), axis=1)
          & np.isfinite(y)).astype(float)
     X = np.where(w[:, None] > 0, X, 0.0)
     y = np.where(w > 0, y, 0.0)
-    # exponentially forgotten sums (causal), normalised per sample: W = sum w
-    iu = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-    S = {ij: _ewm(w * X[:, ij[0]] * X[:, ij[1]], log.t, ID_TAU_S) for ij in iu}
-    Sy = [_ewm(w * X[:, i] * y, log.t, ID_TAU_S) for i in range(3)]
-    Syy = _ewm(w * y * y, log.t, ID_TAU_S)
-    W = _ewm(w, log.t, ID_TAU_S)
+    # exponentially forgotten sums (causal, from zero): W the forgotten count of the rows
+    from scipy.signal import lfilter
+
     dt = float(np.median(np.diff(log.t)))
+    lam = math.exp(-dt / ID_TAU_S)
+
+    def fsum(x):
+        return lfilter([1.0], [1.0, -lam], x)
+
+    iu = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    S = {ij: fsum(w * X[:, ij[0]] * X[:, ij[1]]) for ij in iu}
+    Sy = [fsum(w * X[:, i] * y) for i in range(3)]
+    Syy = fsum(w * y * y)
+    W = fsum(w)
     step = max(1, int(round(1.0 / (ID_RATE_HZ * dt))))
-    # sample count the forgotten sums stand for, and the independent ones among them
-    n_samples = W * ID_TAU_S / dt
-    n_indep = n_samples * dt / ID_CORR_S
+    # the independent samples among the rows counted
+    n_indep = W * dt / ID_CORR_S
     # sensor-noise floor of the residual variance: steering and yaw-rate noise in y
     s0 = (white_noise_std(log.delta) ** 2
           + (L / max(float(np.median(vxs)), VX_MIN)) ** 2 * white_noise_std(log.yaw_rate) ** 2)
     idx = np.arange(0, N, step)
-    ok = (W[idx] > 1e-12) & (n_indep[idx] > 0)
+    ok = n_indep[idx] >= ID_MIN_INDEP
     k = idx[ok]
     Wk = W[k]
     A = np.empty((len(k), 3, 3))
