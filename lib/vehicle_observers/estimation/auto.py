@@ -4,24 +4,32 @@ measured channels only.
 Candidates (:func:`candidates`): the registered causal estimators that are not baselines,
 apply to the log (their columns and vehicle keys), give ``v_y`` and ``r`` and run per sample
 without an LMI design (:data:`CANDIDATES`; ``candidates=`` overrides). Each is run on the
-whole log; at sample ``k`` the estimate of the candidate with the smallest **running
-measured-channel score** up to ``k - 1`` is output (causal: the score at ``k`` never decides
-sample ``k``).
+whole log; the output at sample ``k`` is decided by the candidates' **running
+measured-channel scores** up to ``k - 1`` (causal: the score at ``k`` never decides sample
+``k``), by one of two rules (:data:`RULES`, option ``rule``):
+
+* ``select`` (default): the estimate of the candidate with the lowest score; a candidate
+  replaces the current one only when its score is below ``(1 - HYSTERESIS)`` times the
+  current's (no chattering between near-equal candidates); ``vy_std_mps`` the chosen
+  candidate's calibrated std;
+* ``mix``: IMM-style model probabilities (:func:`weights`: the likelihood of the scores with
+  a fixed share, Blom & Bar-Shalom 1988) and the weighted mean of the estimates, with the
+  mixture's std (:func:`combine`).
 
 Score (a running model-selection rule on normalised residuals, the prequential principle
 of Dawid 1984, J. R. Stat. Soc. A 147): for each candidate, the lateral acceleration of the
 vehicle file's single-track model at its estimate against the measured ``a_y`` (less a slow
 offset, :data:`vehicle_observers.estimation.calibration.BIAS_TAU_S`) and its yaw rate
-against the measured one, each squared and divided by the channel's white-noise variance
-(:func:`~vehicle_observers.data.identification.white_noise_std`), summed, and averaged
-causally with the time constant :data:`TAU_S`. A candidate replaces the current one only
-when its score is below ``(1 - HYSTERESIS)`` times the current's (no chattering between
-near-equal candidates). The output's ``vy_std_mps`` is the chosen candidate's calibrated
-std; ``info["auto_line"]`` says which candidate was used on what share of the rows and why.
+against the measured one, each squared and divided by the channel's running white-noise
+variance (:func:`running_noise_var`, causal), summed, and averaged causally with the time
+constant :data:`TAU_S`. ``info["auto_line"]`` says which candidate was used on what share of
+the rows, and the scores that decided.
 
 What it cannot do: a stiffness error moves ``v_y`` without changing ``r`` and ``a_y``
 (:mod:`vehicle_observers.estimation.calibration`), so the score cannot rank candidates by
-that error; the benchmark compares ``auto`` with every fixed choice.
+that error, and a candidate with more model terms (``adaptive-ekf``) fits the measured
+channels better whether or not its ``v_y`` is better; the benchmark compares ``auto`` with
+every fixed choice.
 """
 
 from __future__ import annotations
@@ -41,6 +49,18 @@ CANDIDATES = ("ekf", "adaptive-ekf", "mbds-kf")
 TAU_S = 60.0
 #: relative margin a candidate's score must beat the current one's by to take over
 HYSTERESIS = 0.1
+#: time constant [s] of the running white-noise variance the residuals are divided by
+NOISE_TAU_S = 30.0
+#: correlation time [s] of the normalised residuals: samples closer than this count as one
+#: in the likelihood of :func:`weights` (the yaw mode's transients last about a second)
+CORR_S = 1.0
+#: share of every candidate kept in the weights whatever the evidence (fixed share)
+SHARE = 0.02
+#: rules: "select" (the lowest running score with hysteresis, :func:`choose`) or "mix"
+#: (the estimates averaged with the weights of :func:`weights`)
+RULES = ("select", "mix")
+#: the default rule
+RULE = "select"
 
 
 def candidates(log: DriveLog, vehicle, names=None) -> list[str]:
@@ -60,17 +80,46 @@ def candidates(log: DriveLog, vehicle, names=None) -> list[str]:
     return out
 
 
-def scores(vy, r, log: DriveLog, vehicle) -> np.ndarray:
-    """Running measured-channel score (module docstring) of one estimate (N,)."""
-    from vehicle_observers.data.identification import white_noise_std
+def running_noise_var(x, t, tau: float = NOISE_TAU_S) -> np.ndarray:
+    """Causal running variance of the white part of a channel ``x`` (N,): the exponential
+    mean (time constant ``tau`` [s]) of its squared second differences over 6 (a white noise
+    of variance ``s^2`` has ``E[(x_{k+1} - 2 x_k + x_{k-1})^2] = 6 s^2``; the whole-log
+    :func:`~vehicle_observers.data.identification.white_noise_std` is its robust, non-causal
+    twin). Row ``k`` reads rows ``<= k``."""
+    x = np.nan_to_num(np.asarray(x, float))
+    d2 = np.zeros(len(x))
+    if len(x) > 2:
+        d2[2:] = (x[2:] - 2 * x[1:-1] + x[:-2]) ** 2 / 6.0
+        d2[:2] = d2[2]
+    return np.maximum(CAL._ewm(d2, t, tau), 1e-12)
 
-    R_r = max(white_noise_std(log.yaw_rate) ** 2, 1e-12)
-    s = (np.nan_to_num(log.yaw_rate - r)) ** 2 / R_r
+
+def scores(vy, r, log: DriveLog, vehicle) -> np.ndarray:
+    """Running measured-channel score (module docstring) of one estimate (N,). Causal: the
+    score at row ``k`` reads rows ``<= k`` of the estimate and of the measured channels."""
+    s = (np.nan_to_num(log.yaw_rate - r)) ** 2 / running_noise_var(log.yaw_rate, log.t)
     if log.ay is not None:
         res = np.nan_to_num(log.ay - CAL.model_ay(vy, r, log, vehicle))
         res = res - CAL._ewm(res, log.t, CAL.BIAS_TAU_S)
-        s = s + res ** 2 / max(white_noise_std(log.ay) ** 2, 1e-12)
+        s = s + res ** 2 / running_noise_var(log.ay, log.t)
     return CAL._ewm(s, log.t, TAU_S)
+
+
+def weights(S: np.ndarray, t: np.ndarray, share: float = SHARE) -> np.ndarray:
+    """IMM-style model probabilities (N, n) from the running scores ``S`` (N, n): row ``k``
+    is ``softmax(-0.5 n_eff (S[k-1] - min S[k-1]))`` mixed with the uniform share ``share``
+    (the Markov switching of an IMM, Blom & Bar-Shalom 1988, IEEE TAC 33(8); the "fixed share"
+    of Herbster & Warmuth 1998, Machine Learning 32), ``n_eff = TAU_S / CORR_S`` the
+    independent samples the running mean stands for (a mean of normalised squared residuals
+    times the samples it averages is the log-likelihood up to a constant). Row 0 is
+    uniform. Causal: row ``k`` reads ``S`` up to ``k - 1``."""
+    N, n = S.shape
+    n_eff = TAU_S / CORR_S
+    prev = np.vstack([np.zeros((1, n)), S[:-1]])
+    z = -0.5 * n_eff * (prev - prev.min(axis=1, keepdims=True))
+    w = np.exp(z)
+    w /= w.sum(axis=1, keepdims=True)
+    return (1.0 - share) * w + share / n
 
 
 def choose(S: np.ndarray, hysteresis: float = HYSTERESIS) -> np.ndarray:
@@ -88,12 +137,47 @@ def choose(S: np.ndarray, hysteresis: float = HYSTERESIS) -> np.ndarray:
     return ch
 
 
-@estimator("auto", "causal choice among ekf, adaptive-ekf and mbds-kf per sample by a running "
-           "score of the measured-channel residuals (r and a_y), with hysteresis",
+def combine(cols: list[dict], S: np.ndarray, t: np.ndarray, rule: str) -> tuple[dict, np.ndarray]:
+    """The output columns ``vy_mps``, ``yaw_rate_radps``, ``vy_std_mps`` (N,) of the
+    candidates' columns ``cols`` under ``rule`` (:data:`RULES`) from their running scores
+    ``S`` (N, n), and the weights (N, n) used (0/1 for "select"). "mix": the weighted mean
+    and the mixture's std ``sqrt(sum w (std^2 + (v_y - mean)^2))`` (the IMM's combined
+    covariance)."""
+    if rule == "select":
+        ch = choose(S)
+        W = np.zeros_like(S)
+        W[np.arange(len(ch)), ch] = 1.0
+    elif rule == "mix":
+        W = weights(S, t)
+    else:
+        from vehicle_observers.core.errors import ObserverArgumentError
+
+        raise ObserverArgumentError(f"auto: rule must be one of {', '.join(RULES)}, got "
+                                    f"{rule!r}")
+    out = {}
+    for key in ("vy_mps", "yaw_rate_radps"):
+        out[key] = np.sum(W * np.column_stack([c[key] for c in cols]), axis=1)
+    if all("vy_std_mps" in c for c in cols):
+        V = np.column_stack([c["vy_mps"] for c in cols])
+        Sd = np.column_stack([c["vy_std_mps"] for c in cols])
+        out["vy_std_mps"] = np.sqrt(np.sum(W * (Sd ** 2 + (V - out["vy_mps"][:, None]) ** 2),
+                                           axis=1))
+    return out, W
+
+
+@estimator("auto", "causal choice among ekf, adaptive-ekf and mbds-kf by a running score of "
+           "the measured-channel residuals (r and a_y): the lowest with hysteresis "
+           "(rule=select) or their IMM-style likelihood weights (rule=mix)",
            optional_columns=("ay_mps2",), paper="this library")
 def run_auto(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
-             candidates_=None, cache: bool = False, **opts):
-    """``candidates_``: names to choose among (default :data:`CANDIDATES`)."""
+             candidates_=None, cache: bool = False, rule: str = RULE, **opts):
+    """``candidates_``: names to choose among (default :data:`CANDIDATES`); ``rule``: one of
+    :data:`RULES`."""
+    if rule not in RULES:
+        from vehicle_observers.core.errors import ObserverArgumentError
+
+        raise ObserverArgumentError(f"auto: rule must be one of {', '.join(RULES)}, got "
+                                    f"{rule!r}")
     names = candidates(log, vehicle, candidates_)
     if not names:
         from vehicle_observers.core.errors import RegistryError
@@ -103,31 +187,36 @@ def run_auto(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
     runs = [specs[n].run(log, vehicle, max_gap=max_gap, cache=cache, **opts) for n in names]
     cols = [r.columns for r in runs]
     S = np.column_stack([scores(c["vy_mps"], c["yaw_rate_radps"], log, vehicle) for c in cols])
-    ch = choose(S)
-    rows = np.arange(len(log))
-    out = {}
-    for key in ("vy_mps", "yaw_rate_radps", "vy_std_mps"):
-        if all(key in c for c in cols):
-            out[key] = np.column_stack([c[key] for c in cols])[rows, ch]
+    out, W = combine(cols, S, log.t, rule)
+    ch = np.argmax(W, axis=1)
     out["beta_rad"] = np.arctan2(out["vy_mps"], log.vx)
     low = np.all(np.column_stack([r.flags["low_speed"] for r in runs]), axis=1)
     out["low_speed"] = low
     out["reinit"] = runs[0].flags["reinit"]
     share = {n: float(np.mean(ch == i)) for i, n in enumerate(names)}
+    mean_w = {n: float(np.mean(W[:, i])) for i, n in enumerate(names)}
     switches = int(np.sum(np.diff(ch) != 0))
-    first = int(np.argmin(S[min(len(log) - 1, int(TAU_S / max(log.dt, 1e-9)))]))
-    line = (f"auto chose among {', '.join(names)} by the running score of the measured "
-            f"channels (r, a_y residuals of the vehicle model at each estimate; {TAU_S:g} s "
-            f"average): " + ", ".join(f"{n} {100 * v:.0f} %" for n, v in share.items()
-                                      if v > 0)
-            + f" of the rows, {switches} switch(es); lowest score after the first "
-              f"{TAU_S:g} s: {names[first]}")
+    last = S[-1]
+    why = ", ".join(f"{n} {v:.3g}" for n, v in zip(names, last))
+    how = ("the lowest running score, replaced only when another is "
+           f"{100 * HYSTERESIS:g} % lower" if rule == "select" else
+           f"likelihood weights of the running scores (IMM-style, {100 * SHARE:g} % fixed "
+           "share), estimates averaged")
+    line = (f"auto ({rule}) among {', '.join(names)} by the running score of the measured "
+            f"channels (r, a_y residuals of the vehicle model at each estimate over "
+            f"{TAU_S:g} s; {how}): "
+            + ", ".join(f"{n} {100 * v:.0f} %" for n, v in share.items() if v > 0)
+            + " of the rows" + ("" if rule == "select" else " with the largest weight; mean "
+                                "weights " + ", ".join(f"{n} {v:.2f}" for n, v in
+                                                        mean_w.items()))
+            + f", {switches} switch(es); scores at the end (lower is better): {why}")
     info = {"auto_candidates": names, "auto_share": share, "auto_switches": switches,
-            "auto_line": line, "auto_choice": ch}
+            "auto_line": line, "auto_choice": ch, "auto_weights": W, "auto_rule": rule}
     tr = Trajectory.from_columns(log.t, out, seconds=sum(r.seconds for r in runs),
                                  design_seconds=sum(r.design_seconds for r in runs),
                                  causal=True, estimator="auto", info=info)
-    # the chosen candidates' stds are calibrated already: only the verdict is added
+    # the candidates' stds are calibrated already: only the verdict is added
     tr.info.update(CAL.verdict_info(out["vy_mps"], out["vy_std_mps"], log, vehicle, low))
-    tr.info["uncertainty"] = "the chosen candidate's calibrated std"
+    tr.info["uncertainty"] = ("the chosen candidate's calibrated std" if rule == "select" else
+                              "the mixture of the candidates' calibrated stds")
     return tr

@@ -14,11 +14,23 @@ of four terms (:func:`calibrated_std`):
    1966; Woodbury, Tapley et al., *Statistical Orbit Determination*, 2004, Sec. 6.3): with
    ``a_y`` and ``r`` fitted, the rear axle's lateral force is fixed by the moment balance and
    ``v_y = a_r r - v_x alpha_r`` with ``alpha_r = F_r / C_r``; a relative error ``eps`` of the
-   rear stiffness moves ``v_y`` by ``v_x alpha_r eps``. The std of ``eps`` is that of the
-   vehicle file's stiffness box ``uncertainty.stiffness_rel`` taken uniform
-   (``rel / sqrt(3)``; :data:`DEFAULT_REL` when the file declares none), ``alpha_r`` the
-   estimate's own rear slip ``-(v_y - a_r r) / v_x``. Skipped for filters that already carry
-   the box in their covariance (``consider=False``: ``adaptive-ekf``'s Schmidt states).
+   rear compliance ``1 / C_r`` moves ``v_y`` by ``v_x alpha_r eps``, ``alpha_r`` the
+   estimate's own rear slip ``-(v_y - a_r r) / v_x``. The variance is
+   ``(v_x alpha_r)^2 E[eps^2]`` with ``E[eps^2] = (c_r - 1)^2 + P_rr`` under the **posterior**
+   of the axle compliance ratios ``c = C_nominal / C_true`` given the measured channels
+   (:func:`compliance_posterior`): Bayesian linear regression (Gelman et al., *Bayesian Data
+   Analysis*, 3rd ed., 2013, Sec. 14.2) of the kinematic identity
+   ``delta - L r / v_x = alpha_f - alpha_r`` on the slips the vehicle file's tyres need for the
+   axle forces measured by ``a_y`` and ``dr/dt`` (``F_f = (m a_y a_r + I_z dr/dt) / L``,
+   ``F_r = (m a_y a_f - I_z dr/dt) / L``), with exponential forgetting (recursive least
+   squares, Ljung & Soederstroem, *Theory and Practice of Recursive Identification*, 1983,
+   Sec. 2.6) and the vehicle file's stiffness box ``uncertainty.stiffness_rel`` taken
+   uniform as the prior (std ``rel / sqrt(3)``; :data:`DEFAULT_REL` when the file declares
+   none). Where the data fix the compliances (transients: ``dr/dt`` separates the axles)
+   the term is the mismatch the measured channels show; where they do not (steady cornering
+   fixes only the understeer combination; no ``a_y`` channel) it stays the prior box.
+   Skipped for filters that already carry the box in their covariance (``consider=False``:
+   ``adaptive-ekf``'s Schmidt states).
 3. **Residual term** (covariance matching on the measured-channel residuals, Mehra 1970,
    IEEE TAC 15(2); the windowed estimate of Mohamed & Schwarz 1999, J. Geodesy 73): the
    lateral acceleration the vehicle file's tyres give at the estimate,
@@ -69,6 +81,29 @@ ZERO_COVERED = 0.95
 SETTLE_S = 1.0
 #: smallest |v_x| [m/s] the sensitivities divide by
 VX_MIN = 1.0
+#: time constant [s] of the causal low-pass applied to every channel before the axle forces
+#: are formed (``dr/dt`` of a 100 Hz yaw rate with 0.002 rad/s noise is otherwise noise;
+#: 0.1 s keeps the yaw mode, whose time constants are 0.1-0.5 s at road speeds)
+ID_SMOOTH_S = 0.1
+#: forgetting time constant [s] of the compliance regression (a stiffness mismatch is a
+#: property of the car and its tyres: it changes over minutes, with temperature and wear)
+ID_TAU_S = 60.0
+#: correlation time [s] of the regression's residuals: samples closer than this count as one
+#: (the yaw mode's transients, hence the model error they leave, last about a second)
+ID_CORR_S = 1.0
+#: independent samples (:data:`ID_CORR_S` apart) the regression needs before it moves from the
+#: prior (with fewer, its residual mean square is fitted to the few rows it has)
+ID_MIN_INDEP = 5.0
+#: speed [m/s] below which a row does not enter the regression (the slips divide by v_x)
+ID_VX_MIN = 5.0
+#: prior std [rad] of the regression's intercept (a steering or a_y offset; 1 deg)
+ID_OFFSET_PRIOR = math.radians(1.0)
+#: rows per posterior evaluation are thinned to at most this rate [Hz] (held in between)
+ID_RATE_HZ = 10.0
+#: rows where either tyre's local slope at the estimate is below this share of its zero-slip
+#: slope do not enter the regression (near and past the peak the nominal inverse is
+#: ill-conditioned or undefined: a Newton step there gave negative compliances on a lap)
+ID_MIN_SLOPE = 0.5
 
 
 def _ewm(x: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
@@ -110,12 +145,135 @@ def residual_variance(vy, r, log: DriveLog, vehicle) -> np.ndarray:
     return gain ** 2 * np.maximum(power - R_ay, 0.0)
 
 
-def consider_variance(vy, r, log: DriveLog, vehicle) -> np.ndarray:
-    """Term 2 of the module docstring [(m/s)^2], (N,)."""
+def _local_inverse(tyre, alpha, F) -> tuple[np.ndarray, np.ndarray]:
+    """The slip [rad] the tyre ``tyre`` needs for the force ``F`` [N], one Newton step from
+    ``alpha`` [rad] (N,) on its curve, and where it is usable: the local slope at least
+    :data:`ID_MIN_SLOPE` of the zero-slip slope (N,) bool."""
+    C0 = float(tyre.cornering_stiffness)
+    h = 1e-4
+    slope = (tyre.force(alpha + h) - tyre.force(alpha - h)) / (2 * h)
+    ok = slope >= ID_MIN_SLOPE * C0
+    slope = np.maximum(slope, ID_MIN_SLOPE * C0)
+    return alpha + (F - tyre.force(alpha)) / slope, ok
+
+
+def measured_axle_forces(log: DriveLog, vehicle, tau: float = ID_SMOOTH_S):
+    """Axle forces [N] (N,) from the measured channels only, ``F_f = (m a_y a_r + I_z dr/dt)
+    / L`` and ``F_r = (m a_y a_f - I_z dr/dt) / L`` (force and moment balance of the single
+    track, Yacine 2015 eq. (1)), on ``a_y`` and the yaw rate low-passed causally with ``tau``
+    [s] (``dr/dt`` by backward differences of the low-passed yaw rate). ``None`` without an
+    a_y channel."""
+    if log.ay is None:
+        return None
+    p = vehicle.params
+    L = p.a_f + p.a_r
+    ay = _ewm(np.nan_to_num(log.ay), log.t, tau)
+    r = _ewm(np.nan_to_num(log.yaw_rate), log.t, tau)
+    dt = np.diff(log.t, prepend=log.t[0] - (log.t[1] - log.t[0] if len(log) > 1 else 1.0))
+    rd = np.diff(r, prepend=r[0]) / np.maximum(dt, 1e-9)
+    return (p.m * ay * p.a_r + p.I_z * rd) / L, (p.m * ay * p.a_f - p.I_z * rd) / L
+
+
+def compliance_posterior(vy, r, log: DriveLog, vehicle):
+    """Running posterior of the axle compliance ratios ``c = (c_f, c_r)`` (nominal over true
+    cornering stiffness; 1 = the vehicle file is right) and of an offset ``b`` [rad], from the
+    measured channels and the estimate ``vy`` [m/s], ``r`` [rad/s] (N,) as the tyres'
+    operating point (module docstring, term 2). Regression, per row in motion (``v_x >=``
+    :data:`ID_VX_MIN`): ``delta - L r_meas / v_x = c_f phi_f - c_r phi_r + b``, ``phi`` the
+    slip the file's tyre needs for the measured axle force (:func:`measured_axle_forces`,
+    :func:`_local_inverse`; rows near a tyre's peak left out); every channel low-passed with
+    :data:`ID_SMOOTH_S`; sums forgotten with :data:`ID_TAU_S`; noise variance the residual
+    mean square at the least-squares solution (floored by the propagated sensor noise), samples
+    :data:`ID_CORR_S` apart counted as independent; prior ``c ~ N(1, rel^2 / 3)`` per axle
+    (the stiffness box taken uniform), ``b ~ N(0, ID_OFFSET_PRIOR^2)``. Causal: row ``k`` uses
+    rows ``<= k`` (evaluated at :data:`ID_RATE_HZ`, held in between), except the sensor-noise
+    floor of the residual variance (the whole log's white-noise std of ``delta`` and ``r``).
+
+    What it can tell: the understeer combination of the two compliances is fixed by steady
+    cornering, the axles apart by transients; a common scale of both on a car near neutral
+    steer is seen by neither (it stays near the prior), nor is an accelerometer's roll gain
+    told from a stiffness error (both scale the measured forces).
+
+    Returns ``(mean, var)``, each (N, 3) for ``(c_f, c_r, b)``: the posterior mean and the
+    posterior variances (diagonal of the covariance). Without an a_y channel: the prior."""
+    from vehicle_observers.data.identification import white_noise_std
+
     rel = float(vehicle.uncertainty.get("stiffness_rel", DEFAULT_REL))
+    N = len(log)
+    prior_m = np.array([1.0, 1.0, 0.0])
+    prior_v = np.array([rel ** 2 / 3.0, rel ** 2 / 3.0, ID_OFFSET_PRIOR ** 2])
+    mean = np.tile(prior_m, (N, 1))
+    var = np.tile(prior_v, (N, 1))
+    F = measured_axle_forces(log, vehicle)
+    if F is None or N < 5:
+        return mean, var
+    p = vehicle.params
+    L = p.a_f + p.a_r
+    sm = lambda x: _ewm(np.nan_to_num(np.asarray(x, float)), log.t, ID_SMOOTH_S)  # noqa: E731
+    vx = sm(log.vx)
+    vxs = np.maximum(np.abs(vx), VX_MIN)
+    d, rm, vye, re = sm(log.delta), sm(log.yaw_rate), sm(vy), sm(r)
+    a_f = d - (vye + p.a_f * re) / vxs
+    a_r = -(vye - p.a_r * re) / vxs
+    phi_f, ok_f = _local_inverse(p.tire_f, a_f, F[0])
+    phi_r, ok_r = _local_inverse(p.tire_r, a_r, F[1])
+    y = d - L * rm / vxs
+    X = np.column_stack([phi_f, -phi_r, np.ones(N)])
+    w = ((np.abs(vx) >= ID_VX_MIN) & ok_f & ok_r & np.all(np.isfinite(X), axis=1)
+         & np.isfinite(y)).astype(float)
+    X = np.where(w[:, None] > 0, X, 0.0)
+    y = np.where(w > 0, y, 0.0)
+    # exponentially forgotten sums (causal, from zero): W the forgotten count of the rows
+    from scipy.signal import lfilter
+
+    dt = float(np.median(np.diff(log.t)))
+    lam = math.exp(-dt / ID_TAU_S)
+
+    def fsum(x):
+        return lfilter([1.0], [1.0, -lam], x)
+
+    iu = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    S = {ij: fsum(w * X[:, ij[0]] * X[:, ij[1]]) for ij in iu}
+    Sy = [fsum(w * X[:, i] * y) for i in range(3)]
+    Syy = fsum(w * y * y)
+    W = fsum(w)
+    step = max(1, int(round(1.0 / (ID_RATE_HZ * dt))))
+    # the independent samples among the rows counted
+    n_indep = W * dt / ID_CORR_S
+    # sensor-noise floor of the residual variance: steering and yaw-rate noise in y
+    s0 = (white_noise_std(log.delta) ** 2
+          + (L / max(float(np.median(vxs)), VX_MIN)) ** 2 * white_noise_std(log.yaw_rate) ** 2)
+    idx = np.arange(0, N, step)
+    ok = n_indep[idx] >= ID_MIN_INDEP
+    k = idx[ok]
+    Wk = W[k]
+    A = np.empty((len(k), 3, 3))
+    for (i, j) in iu:
+        A[:, i, j] = A[:, j, i] = S[(i, j)][k] / Wk
+    bv = np.column_stack([Sy[i][k] for i in range(3)]) / Wk[:, None]
+    yy = Syy[k] / Wk
+    reg = 1e-9 * np.trace(A, axis1=1, axis2=2)[:, None, None] * np.eye(3) + 1e-300
+    c_ls = np.linalg.solve(A + reg, bv[..., None])[..., 0]
+    res = yy - 2 * np.einsum("ki,ki->k", c_ls, bv) + np.einsum("ki,kij,kj->k", c_ls, A, c_ls)
+    s2 = np.maximum(res, s0)
+    info = A * (n_indep[k] / s2)[:, None, None]
+    Pk = np.linalg.inv(info + np.diag(1.0 / prior_v))
+    rhs = bv * (n_indep[k] / s2)[:, None] + prior_m / prior_v
+    mean[k] = np.einsum("kij,kj->ki", Pk, rhs)
+    var[k] = np.diagonal(Pk, axis1=1, axis2=2)
+    # hold each evaluation until the next (causal)
+    held = np.repeat(idx, np.diff(np.r_[idx, N]))
+    return mean[held], var[held]
+
+
+def consider_variance(vy, r, log: DriveLog, vehicle, posterior=None) -> np.ndarray:
+    """Term 2 of the module docstring [(m/s)^2], (N,); ``posterior`` the
+    :func:`compliance_posterior` when computed already."""
+    mean, var = compliance_posterior(vy, r, log, vehicle) if posterior is None else posterior
     vx = np.maximum(np.abs(log.vx), VX_MIN)
     alpha_r = -(vy - vehicle.params.a_r * r) / vx
-    return (np.abs(log.vx) * alpha_r * rel / math.sqrt(3.0)) ** 2
+    eps2 = (mean[:, 1] - 1.0) ** 2 + var[:, 1]
+    return (np.abs(log.vx) * alpha_r) ** 2 * eps2
 
 
 def floor_variance(log: DriveLog) -> np.ndarray:
@@ -136,6 +294,40 @@ def calibrated_std(vy, r, log: DriveLog, vehicle, filter_std=None,
     if filter_std is not None:
         var = var + np.nan_to_num(np.asarray(filter_std, float)) ** 2
     return np.sqrt(var)
+
+
+#: share of a Gaussian within 1 and 2 standard deviations: ``erf(k / sqrt(2))``
+GAUSS_1SIGMA = math.erf(1.0 / math.sqrt(2.0))
+GAUSS_2SIGMA = math.erf(2.0 / math.sqrt(2.0))
+
+
+def coverage(err, std, mask=None) -> dict:
+    """Consistency of a reported std with the errors it claims to describe: ``err`` (N,)
+    the estimate minus the reference [m/s], ``std`` (N,) the reported std [m/s], over the rows
+    ``mask``. Returns ``{"coverage_2sigma", "coverage_1sigma", "nees", "n"}``: the shares of
+    ``|err| <= 2 std`` and ``|err| <= std`` (a consistent Gaussian std: :data:`GAUSS_2SIGMA`
+    = 0.954 and :data:`GAUSS_1SIGMA` = 0.683) and the mean normalised estimation error
+    squared ``mean((err / std)^2)`` (1 when consistent; Bar-Shalom, Li & Kirubarajan,
+    *Estimation with Applications to Tracking and Navigation*, 2001, Sec. 5.4). An error
+    spread evenly (a bias that follows the slip, not Gaussian noise) reaches NEES 1 with a
+    2-sigma coverage of 1.00: the two numbers are read together."""
+    e = np.asarray(err, float)
+    s = np.maximum(np.asarray(std, float), 1e-12)
+    m = np.ones(len(e), bool) if mask is None else np.asarray(mask, bool)
+    e, s = e[m], s[m]
+    if not len(e):
+        return {"coverage_2sigma": float("nan"), "coverage_1sigma": float("nan"),
+                "nees": float("nan"), "n": 0}
+    return {"coverage_2sigma": float(np.mean(np.abs(e) <= 2 * s)),
+            "coverage_1sigma": float(np.mean(np.abs(e) <= s)),
+            "nees": float(np.mean((e / s) ** 2)), "n": int(len(e))}
+
+
+def binomial_band(n: int, p: float = GAUSS_2SIGMA, z: float = 3.29) -> tuple[float, float]:
+    """``p -+ z sqrt(p (1 - p) / n)``: where the share of ``n`` independent trials of
+    probability ``p`` falls (normal approximation; ``z = 3.29``: 99.9 %)."""
+    h = z * math.sqrt(p * (1.0 - p) / n)
+    return p - h, p + h
 
 
 def zero_covered(vy, std, mask=None) -> float:

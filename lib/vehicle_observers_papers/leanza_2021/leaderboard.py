@@ -12,10 +12,11 @@ where ``t > 1 s``).
 
 Columns (:func:`rows`): ``rmse_vy`` [m/s], ``rmse_beta_deg`` (sideslip RMSE in degrees, the
 peers' metric), ``coverage_2sigma`` (share of scored samples with ``|v_y - ref| <= 2
-vy_std_mps``, estimators with a std column), ``nees`` (mean of ``((v_y - ref)/std)^2``; 1 for
-a consistent std), ``verdict`` (``info["verdict"]`` where given, else
-:func:`vehicle_observers.estimation.calibration.verdict_of` of the estimate), ``causal``,
-``us_per_step``.
+vy_std_mps``, estimators with a std column; ``coverage_1sigma`` the same within 1 std, 0.683
+for a consistent Gaussian std: :func:`vehicle_observers.estimation.calibration.coverage`),
+``nees`` (mean of ``((v_y - ref)/std)^2``; 1 for a consistent std), ``verdict``
+(``info["verdict"]`` where given, else :func:`vehicle_observers.estimation.calibration.
+verdict_of` of the estimate), ``causal``, ``us_per_step``.
 
 Targets (:func:`targets`), "best causal" over the causal estimators that are not baselines
 (:data:`BASELINES`):
@@ -123,10 +124,11 @@ def score_row(est, log: DriveLog, mask) -> dict:
            "causal": bool(est.causal), "us_per_step": est.us_per_step}
     std = c.get("vy_std_mps")
     if std is not None:
-        e = (vy - log.vy)[mask]
-        s = std[mask]
-        row["coverage_2sigma"] = float(np.mean(np.abs(e) <= 2 * s))
-        row["nees"] = float(np.mean((e / np.maximum(s, 1e-12)) ** 2))
+        from vehicle_observers.estimation.calibration import coverage
+
+        cv = coverage(vy - log.vy, std, mask)
+        row.update(coverage_2sigma=cv["coverage_2sigma"], coverage_1sigma=cv["coverage_1sigma"],
+                   nees=cv["nees"])
     if "verdict" in est.info:
         row["verdict"] = est.info["verdict"]
         row["verdict_line"] = est.info.get("verdict_line", "")
@@ -462,7 +464,7 @@ def markdown(table: list[dict], cols) -> str:
 
 
 TABLE_COLUMNS = ("dataset", "observer", "causal", "rmse_vy", "rmse_beta_deg", "coverage_2sigma",
-                 "nees", "verdict", "terms", "us_per_step")
+                 "coverage_1sigma", "nees", "verdict", "terms", "us_per_step")
 
 
 def main(argv=None) -> int:
