@@ -78,7 +78,7 @@ from vehicle_observers.models.lateral import (
     LateralParams,
     M,
 )
-from vehicle_observers.models.road import bank_column, lateral_gravity
+from vehicle_observers.models.road import bank_column, body_roll_ay, lateral_gravity
 from vehicle_observers.models.tires import magic_formula_slope
 from vehicle_observers.models.vehicle import Q_B, Q_R, Q_VY, R_AY, R_R, KalmanTuning
 
@@ -526,6 +526,9 @@ def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float |
     if despike_steering is not None:
         delta, _ = despike(delta, despike_steering)
     ay = np.ascontiguousarray(log.ay if use else np.zeros_like(log.t), dtype=float)
+    tilt = body_roll_ay(log) if use else None
+    if tilt is not None:                   # a roll column: the body's tilt of the sensor
+        ay = ay - tilt
     x0 = _x0(log.yaw_rate[0])
     gy = lateral_gravity(log)
     if gy is not None and not np.all(np.isfinite(gy)):
@@ -907,6 +910,32 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
         th, P0=start.P0,
         source=f"ML on measured channels of {log.source} ({len(inp.t)} samples, "
                f"{'r, a_y' if inp.use_ay else 'r'}; nll={res.fun:.6g}, {res.nit} iterations)")
+
+
+#: search interval of :func:`fit_stiffness_speed` [s/m] (+-0.02: the stiffness factor
+#: changes by 40 % over 20 m/s at the ends)
+STIFFNESS_SPEED_BOUNDS = (-0.02, 0.02)
+
+
+def fit_stiffness_speed(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
+                        bounds=STIFFNESS_SPEED_BOUNDS, xatol: float = 1e-4) -> tuple[float, float]:
+    """Maximum-likelihood speed gain ``k_s`` [s/m] of the cornering stiffness, ``C(v_x) = C
+    (1 + k_s v_x)`` (:class:`~vehicle_observers.models.lateral.LateralParams`
+    ``stiffness_speed``): the EKF innovation negative log-likelihood of the measured
+    channels (:func:`nll`, noise ``tuning`` held) minimised over ``bounds`` by bounded Brent
+    (``xatol`` [s/m]). Reads ``t, v_x, delta, r, a_y`` (and a bank column) only: never the
+    reference. Returns ``(k_s, nll(k_s) - nll(0))`` (negative: the data prefer ``k_s``)."""
+    from scipy.optimize import minimize_scalar
+
+    inp = prepare(log)
+
+    def f(k):
+        v = nll(inp, replace(params, stiffness_speed=float(k)), tuning)
+        return v if np.isfinite(v) else 1e300
+
+    res = minimize_scalar(f, bounds=tuple(bounds), method="bounded",
+                          options={"xatol": float(xatol)})
+    return float(res.x), float(res.fun - f(0.0))
 
 
 def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,

@@ -57,7 +57,7 @@ from vehicle_observers.estimation.calibration import (
     BETA_FLOOR,  # noqa: F401  (constant-sideslip floor [rad], 0.1 deg; used by vy_std)
     MIN_SIGNAL_TO_STD,  # noqa: F401  (informative when RMS(v_y) >= this x RMS(std))
 )
-from vehicle_observers.models.road import lateral_gravity
+from vehicle_observers.models.road import body_roll_ay, lateral_gravity
 
 #: BIC decrease a term must bring to be added
 MIN_BIC_GAIN = 10.0
@@ -123,7 +123,8 @@ def _arrays(log: DriveLog):
 
     d, _ = despike(np.asarray(log.delta, float), 0.1)
     ay = np.zeros(len(log)) if log.ay is None else log.ay
-    return log.t, log.vx, d, log.yaw_rate, ay
+    tilt = body_roll_ay(log)              # a roll column: the body's tilt of the sensor
+    return log.t, log.vx, d, log.yaw_rate, ay if tilt is None else ay - tilt
 
 
 def fit_terms(win: DriveLog, params, terms: AD.Terms, rel: float, use_ay: bool,

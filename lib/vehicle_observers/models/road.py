@@ -18,13 +18,15 @@ sign. (The multi-body plant of :mod:`vehicle_observers.data.plant` counts its bo
 Columns (the open ``<quantity>_<unit>`` schema of :mod:`vehicle_observers.data.logs`):
 :data:`BANK_COLUMNS`, the first present is used; ``deg`` is converted to rad. ``bank_*`` is
 the road's bank and is used as it is. ``roll_*`` is the roll angle of the sensor frame
-against gravity (an INS roll): the bank plus the body's own roll on its suspension, which is
-no force on the car and must not enter the balance (taken as bank, it makes the EKF 2-3x
-worse on the flat-road plant logs). The body's roll follows the lateral specific force,
-``phi_body = k_phi a`` (roll gradient ``k_phi`` [rad per m/s^2]; ``a`` the measured ``a_y``,
-or ``v_x r`` without an a_y channel), so
+against gravity (an INS roll): the bank plus the body's own roll on its suspension. The
+body's roll is no force on the car and must not enter the balance (taken as bank, it makes
+the EKF 2-3x worse on the flat-road plant logs), but it tilts an accelerometer fixed to the
+body, which then reads ``g sin(phi_body)`` more than the tyre forces (specific force along
+the tilted axis, :mod:`vehicle_observers.data.plant`). The body's roll follows the lateral
+specific force, ``phi_body = k_phi a`` (roll gradient ``k_phi`` [rad per m/s^2]; ``a`` the
+measured ``a_y``, or ``v_x r`` without an a_y channel), so
 
-    phi = roll - k_phi a,
+    phi = roll - k_phi a,       a_y,meas - g sin(phi_body)  is what the filters read as a_y
 
 with ``k_phi`` fitted by least squares on the differences of ``roll`` and ``a`` over
 :data:`ROLL_FIT_LAG_S` (the road's bank hardly changes in 0.5 s, the body's roll follows the
@@ -98,6 +100,18 @@ def bank_angle(log) -> np.ndarray | None:
         a = np.asarray(a, dtype=float)
         phi = phi - roll_gradient(log.t, phi, a) * a
     return phi
+
+
+def body_roll_ay(log) -> np.ndarray | None:
+    """``g sin(phi_body)`` (N,) [m/s^2], what the body's roll adds to an accelerometer on
+    the body, to be subtracted from the measured ``a_y`` (module docstring); ``None`` without
+    a roll column or an a_y channel."""
+    c = bank_column(log)
+    if c is None or not c.startswith("roll_") or getattr(log, "ay", None) is None:
+        return None
+    roll = np.asarray(log.extra[c], dtype=float) * TO_RAD[c.rsplit("_", 1)[1]]
+    a = np.asarray(log.ay, dtype=float)
+    return G * np.sin(roll_gradient(log.t, roll, a) * a)
 
 
 def lateral_gravity(log) -> np.ndarray | None:
