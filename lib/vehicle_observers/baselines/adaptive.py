@@ -36,7 +36,9 @@ The terms (:class:`Terms`; each off leaves the plain EKF of the nonlinear single
   gradient of ``K_us`` in ``(k_f, k_r)`` at ``(1, 1)``, ``u ~ (-a_r/C_f, a_f/C_r)``: the
   gain rows of ``(k_f, k_r)`` and their process noise ``q_k u u^T`` are projected on ``u``,
   the mean is kept on that line inside the box; the orthogonal direction keeps its initial
-  variance as a Schmidt consider state (never updated, carried into the v_y variance).
+  variance as a Schmidt consider state (never updated, carried into the v_y variance; the
+  registered ``adaptive-ekf`` adds the calibration's stiffness-box consider term for it,
+  :mod:`vehicle_observers.estimation.calibration`).
   In **consider** mode
   (``Terms.consider = True``, a Schmidt-Kalman filter) they are not estimated but their box
   variance ``rel^2/3`` (uniform) stays in the covariance, so the reported ``v_y`` variance

@@ -191,8 +191,10 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
     tr = Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
                                  estimator=name, info=info)
     # the stiffness box is in the filter's covariance already (Schmidt consider states)
-    # unless the stiffness is estimated
-    considered = sel.terms.consider or sel.terms.stiffness
+    # when the stiffness is considered or estimated with both factors free; estimated along
+    # the understeer direction only, the direction steady cornering leaves unidentified (the
+    # v_y shift at fitted r and a_y) is the calibration's consider term
+    considered = sel.terms.consider or (sel.terms.stiffness and not sel.terms.understeer_only)
     return calibration.calibrate(tr, log, vehicle, consider=not considered)
 
 
