@@ -28,7 +28,18 @@ The terms (:class:`Terms`; each off leaves the plain EKF of the nonlinear single
   ``v_y`` and ``r`` but not ``a_y``; ``b`` and ``d`` are told apart by the yaw dynamics.
 * ``stiffness`` - axle cornering-stiffness factors ``k_f``, ``k_r`` (the whole tyre curve
   scaled), random walks bounded by the vehicle file's box ``1 +- uncertainty.stiffness_rel``
-  (the mean is projected onto the box after every update): joint EKF. In **consider** mode
+  (the mean is projected onto the box after every update): joint EKF. **Understeer direction
+  only** (``Terms.understeer_only``, the default): in steady cornering yaw rate and ``a_y``
+  fix only the understeer gradient ``K_us = m/L (a_r/C_f - a_f/C_r)`` (``L = a_f + a_r``;
+  ``r/delta = v_x/(L + K_us v_x^2)``, ``a_y = v_x r``), so the factors drift along the level
+  set of ``K_us`` there. The adaptation is restricted to ``k = 1 + s u`` with ``u`` the unit
+  gradient of ``K_us`` in ``(k_f, k_r)`` at ``(1, 1)``, ``u ~ (-a_r/C_f, a_f/C_r)``: the
+  gain rows of ``(k_f, k_r)`` and their process noise ``q_k u u^T`` are projected on ``u``,
+  the mean is kept on that line inside the box; the orthogonal direction keeps its initial
+  variance as a Schmidt consider state (never updated, carried into the v_y variance; the
+  registered ``adaptive-ekf`` adds the calibration's stiffness-box consider term for it,
+  :mod:`vehicle_observers.estimation.calibration`).
+  In **consider** mode
   (``Terms.consider = True``, a Schmidt-Kalman filter) they are not estimated but their box
   variance ``rel^2/3`` (uniform) stays in the covariance, so the reported ``v_y`` variance
   carries the stiffness uncertainty of the vehicle file.
@@ -87,6 +98,7 @@ class Terms:
     stiffness: bool = False
     blend: bool = False
     consider: bool = False
+    understeer_only: bool = True
 
     def on(self) -> tuple[str, ...]:
         return tuple(n for n in TERM_NAMES if getattr(self, n))
@@ -126,7 +138,18 @@ class AdaptiveTuning:
                          self.q_d if terms.bank else 0.0, self.q_k if terms.stiffness else 0.0,
                          self.R_r, self.R_ay, self.ay_gain if terms.roll else 1.0,
                          self.w_max if terms.blend else 0.0, BLEND_R0, 1.0 - self.rel,
-                         1.0 + self.rel, 1.0 if terms.stiffness else 0.0], dtype=float)
+                         1.0 + self.rel, 1.0 if terms.stiffness else 0.0, 0.0, 0.0],
+                        dtype=float)
+
+
+def understeer_direction(params: LateralParams) -> np.ndarray:
+    """Unit gradient ``u`` (2,) of the understeer gradient ``K_us = m/L (a_r/(k_f C_f) -
+    a_f/(k_r C_r))`` in the stiffness factors ``(k_f, k_r)`` at ``(1, 1)`` (``C`` the
+    zero-slip cornering stiffnesses of the vehicle file; module docstring): the one
+    direction of the factors that steady cornering identifies."""
+    g = np.array([-params.a_r / params.tire_f.cornering_stiffness,
+                  params.a_f / params.tire_r.cornering_stiffness])
+    return g / np.linalg.norm(g)
 
 
 def initial_covariance(terms: Terms, vx0: float, rel: float) -> np.ndarray:
@@ -141,8 +164,9 @@ def initial_covariance(terms: Terms, vx0: float, rel: float) -> np.ndarray:
 
 # ------------------------------------------------------------------ compiled model ---------
 @njit(cache=True)
-def _model(x, delta, vx, ayin, P, th, f, A):
-    """Continuous right-hand side ``f`` (6,) and Jacobian ``A`` (6, 6) (module docstring)."""
+def _model(x, delta, vx, ayin, P, th, f, A, gyin=0.0):
+    """Continuous right-hand side ``f`` (6,) and Jacobian ``A`` (6, 6) (module docstring);
+    ``gyin`` [m/s^2] the measured bank term ``-g sin(phi)`` (:mod:`vehicle_observers.models.road`)."""
     m, Iz, af, ar = P[0], P[1], P[2], P[3]
     vy, r, b, d, kf, kr = x[0], x[1], x[2], x[3], x[4], x[5]
     g, wmax, r0 = th[7], th[8], th[9]
@@ -163,7 +187,7 @@ def _model(x, delta, vx, ayin, P, th, f, A):
         f[i] = 0.0
         for j in range(6):
             A[i, j] = 0.0
-    f[0] = (1.0 - w) * dyn + w * kin - vx * r + d
+    f[0] = (1.0 - w) * dyn + w * kin - vx * r + d + gyin
     f[1] = (af * Ff - ar * Fr) / Iz
     fv, fr = -kf * dFf0 / vx, -kf * dFf0 * af / vx
     rv, rr = -kr * dFr0 / vx, kr * dFr0 * ar / vx
@@ -180,7 +204,7 @@ def _model(x, delta, vx, ayin, P, th, f, A):
 
 
 @njit(cache=True)
-def _model_f(x, delta, vx, ayin, P, th, f):
+def _model_f(x, delta, vx, ayin, P, th, f, gyin=0.0):
     """:func:`_model` without the Jacobian (the RK4 stages 2-4)."""
     m, Iz, af, ar = P[0], P[1], P[2], P[3]
     vy, r, b, d, kf, kr = x[0], x[1], x[2], x[3], x[4], x[5]
@@ -188,7 +212,7 @@ def _model_f(x, delta, vx, ayin, P, th, f):
     Ff = kf * magic_formula(delta - (vy + af * r) / vx, P[7], P[8], P[9], P[10])
     Fr = kr * magic_formula(-(vy - ar * r) / vx, P[11], P[12], P[13], P[14])
     w = wmax * r * r / (r * r + r0 * r0) if wmax > 0.0 else 0.0
-    f[0] = (1.0 - w) * (Ff + Fr) / m + w * (ayin - b) / g - vx * r + d
+    f[0] = (1.0 - w) * (Ff + Fr) / m + w * (ayin - b) / g - vx * r + d + gyin
     f[1] = (af * Ff - ar * Fr) / Iz
     for i in range(2, 6):
         f[i] = 0.0
@@ -218,12 +242,12 @@ def _measure(x, delta, vx, P, th, yh, H):
 
 
 @njit(cache=True)
-def _predict(x, Pm, delta, vx, ayin, h, P, th, W, V):
+def _predict(x, Pm, delta, vx, ayin, h, P, th, W, V, gyin=0.0):
     """Mean: RK4 (inputs held); covariance: ``F Pm F^T + diag(q) h``, ``F = I + hA +
     h^2 A^2 / 2``. Scratch ``W`` (4, 6, 6), ``V`` (5, 6)."""
     A, F, T = W[0], W[1], W[2]
     k1, k2, k3, k4, tmp = V[0], V[1], V[2], V[3], V[4]
-    _model(x, delta, vx, ayin, P, th, k1, A)
+    _model(x, delta, vx, ayin, P, th, k1, A, gyin)
     # only rows 0, 1 of A are non-zero: F = I + h A + h^2 A^2/2 differs from I in rows 0, 1
     for i in range(6):
         for j in range(6):
@@ -233,13 +257,13 @@ def _predict(x, Pm, delta, vx, ayin, h, P, th, W, V):
             F[i, j] += h * A[i, j] + 0.5 * h * h * (A[i, 0] * A[0, j] + A[i, 1] * A[1, j])
     for i in range(6):
         tmp[i] = x[i] + 0.5 * h * k1[i]
-    _model_f(tmp, delta, vx, ayin, P, th, k2)
+    _model_f(tmp, delta, vx, ayin, P, th, k2, gyin)
     for i in range(6):
         tmp[i] = x[i] + 0.5 * h * k2[i]
-    _model_f(tmp, delta, vx, ayin, P, th, k3)
+    _model_f(tmp, delta, vx, ayin, P, th, k3, gyin)
     for i in range(6):
         tmp[i] = x[i] + h * k3[i]
-    _model_f(tmp, delta, vx, ayin, P, th, k4)
+    _model_f(tmp, delta, vx, ayin, P, th, k4, gyin)
     for i in range(6):
         x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     # T = F Pm (rows 2..5 are those of Pm); Pm = T F^T (columns 2..5 those of T) + Q h
@@ -262,9 +286,17 @@ def _predict(x, Pm, delta, vx, ayin, h, P, th, W, V):
         for j in range(6):
             v = A[i, j] if j < 2 else (A[j, i] if i < 2 else T[i, j])
             Pm[i, j] = v
-    for i in range(5):
+    for i in range(4):
         Pm[i, i] += th[i] * h
-    Pm[5, 5] += th[4] * h
+    u0, u1 = th[13], th[14]
+    if u0 != 0.0 or u1 != 0.0:               # stiffness along the understeer direction only
+        Pm[4, 4] += th[4] * h * u0 * u0
+        Pm[4, 5] += th[4] * h * u0 * u1
+        Pm[5, 4] += th[4] * h * u0 * u1
+        Pm[5, 5] += th[4] * h * u1 * u1
+    else:
+        Pm[4, 4] += th[4] * h
+        Pm[5, 5] += th[4] * h
 
 
 @njit(cache=True)
@@ -317,6 +349,11 @@ def _update(x, Pm, delta, vx, yr, ay, use_ay, P, th, W, V, out):
         for a in range(n):
             K[4, a] = 0.0
             K[5, a] = 0.0
+    elif th[13] != 0.0 or th[14] != 0.0:    # gain rows projected on u (Schmidt elsewhere)
+        for a in range(n):
+            sa = th[13] * K[4, a] + th[14] * K[5, a]
+            K[4, a] = th[13] * sa
+            K[5, a] = th[14] * sa
     for i in range(6):
         for a in range(n):
             x[i] += K[i, a] * e[a]
@@ -335,14 +372,41 @@ def _update(x, Pm, delta, vx, yr, ay, use_ay, P, th, W, V, out):
             Pm[i, j] = v
             Pm[j, i] = v
     if th[12] != 0.0:
-        for i in range(4, 6):
-            x[i] = min(max(x[i], th[10]), th[11])
+        if th[13] != 0.0 or th[14] != 0.0:
+            _clip_on_line(x, th)
+        else:
+            for i in range(4, 6):
+                x[i] = min(max(x[i], th[10]), th[11])
+
+
+@njit(cache=True)
+def _clip_on_line(x, th):
+    """The factors ``1 + s u`` kept in the box ``[th[10], th[11]]^2`` by clipping ``s``
+    (the mean stays on the understeer line)."""
+    s = th[13] * (x[4] - 1.0) + th[14] * (x[5] - 1.0)
+    lo, hi = -1e300, 1e300
+    for i in range(2):
+        ui = th[13 + i]
+        if ui > 0.0:
+            lo, hi = max(lo, (th[10] - 1.0) / ui), min(hi, (th[11] - 1.0) / ui)
+        elif ui < 0.0:
+            lo, hi = max(lo, (th[11] - 1.0) / ui), min(hi, (th[10] - 1.0) / ui)
+    s = min(max(s, lo), hi)
+    x[4] = 1.0 + s * th[13]
+    x[5] = 1.0 + s * th[14]
 
 
 @njit(cache=True)
 def _run(t, vx, delta, yr, ay, use_ay, P, th, x0, P0):
-    """The filter over a log. Returns X (N, 6) posterior means, Pd (N, 6) posterior
-    variances, the innovation NLL, nu (N, 2) normalised innovations, nis (N,)."""
+    """:func:`_run_terms` on a flat road."""
+    return _run_terms(t, vx, delta, yr, ay, use_ay, P, th, x0, P0, np.zeros(t.shape[0]))
+
+
+@njit(cache=True)
+def _run_terms(t, vx, delta, yr, ay, use_ay, P, th, x0, P0, gy):
+    """The filter over a log (``gy`` (N,) the measured bank term, held over each step).
+    Returns X (N, 6) posterior means, Pd (N, 6) posterior variances, the innovation NLL,
+    nu (N, 2) normalised innovations, nis (N,)."""
     N = t.shape[0]
     X = np.empty((N, 6))
     Pd = np.empty((N, 6))
@@ -358,7 +422,8 @@ def _run(t, vx, delta, yr, ay, use_ay, P, th, x0, P0):
     nll = 0.0
     for k in range(N):
         if k > 0:
-            _predict(x, Pm, delta[k - 1], vx[k - 1], ay[k - 1], t[k] - t[k - 1], P, th, W, V)
+            _predict(x, Pm, delta[k - 1], vx[k - 1], ay[k - 1], t[k] - t[k - 1], P, th, W, V,
+                     gy[k - 1])
         _update(x, Pm, delta[k], vx[k], yr[k], ay[k], use_ay, P, th, W, V, out)
         nll += out[0]
         nu[k, 0], nu[k, 1], nis[k] = out[1], out[2], out[3]
@@ -385,7 +450,7 @@ def _step(z, k, t, vx, delta, yr, ay, use_ay, P, th):
 
 
 # ------------------------------------------------------------------ readable numpy ---------
-def model_np(x, delta, vx, ayin, p: LateralParams, th):
+def model_np(x, delta, vx, ayin, p: LateralParams, th, gyin: float = 0.0):
     """Readable twin of :func:`_model`: ``(f (6,), A (6, 6))``."""
     vy, r, b, d, kf, kr = x
     g, wmax, r0 = th[7], th[8], th[9]
@@ -398,7 +463,8 @@ def model_np(x, delta, vx, ayin, p: LateralParams, th):
     den = r * r + r0 * r0
     w, dw = (wmax * r * r / den, wmax * 2 * r * r0 * r0 / den**2) if wmax > 0 else (0.0, 0.0)
     kin = (ayin - b) / g
-    f = np.array([(1 - w) * dyn + w * kin - vx * r + d, (af * Ff - ar * Fr) / Iz, 0, 0, 0, 0])
+    f = np.array([(1 - w) * dyn + w * kin - vx * r + d + gyin, (af * Ff - ar * Fr) / Iz,
+                  0, 0, 0, 0])
     dF = np.array([[-kf * dFf0 / vx, -kf * dFf0 * af / vx, 0, 0, Ff0, 0],    # dF_f/dx
                    [-kr * dFr0 / vx, kr * dFr0 * ar / vx, 0, 0, 0, Fr0]])    # dF_r/dx
     A = np.zeros((6, 6))
@@ -420,6 +486,14 @@ def measure_np(x, delta, vx, p: LateralParams, th):
                                (-kf * dFf0 * p.a_f + kr * dFr0 * p.a_r) / vx, 0, 0, Ff0, Fr0])
     H[1, 2] = 1.0
     return np.array([r, g * (kf * Ff0 + kr * Fr0) / p.m + b]), H
+
+
+def _line_box(u, lo, hi):
+    """Range of ``s`` with ``1 + s u`` in ``[lo, hi]^2`` (readable twin of
+    :func:`_clip_on_line`)."""
+    a = [((lo - 1) / ui, (hi - 1) / ui) if ui > 0 else ((hi - 1) / ui, (lo - 1) / ui)
+         for ui in u if ui != 0]
+    return max(v[0] for v in a), min(v[1] for v in a)
 
 
 def _tyre_np(tire, alpha):
@@ -447,6 +521,8 @@ class AdaptiveEKF(ObserverBase):
                                         f"{tuning.rel}")
         self.params, self.terms, self.tuning, self.use_ay = params, terms, tuning, bool(use_ay)
         self.th = tuning.theta(terms)
+        if terms.stiffness and terms.understeer_only:
+            self.th[13:15] = understeer_direction(params)
         self.P = params.as_array()
         self.design = {"terms": terms, "tuning": tuning}
 
@@ -465,12 +541,17 @@ class AdaptiveEKF(ObserverBase):
         H, e, R = H[:n], (yk - yh)[:n], np.diag([th[5], th[6]][:n])
         S = H @ Pm @ H.T + R
         K = Pm @ H.T @ np.linalg.inv(S)
+        u = th[13:15]
         if th[12] == 0.0:
             K[4:] = 0.0
+        elif u.any():
+            K[4:] = np.outer(u, u) @ K[4:]
         x = x + K @ e
         M = np.eye(6) - K @ H
         Pm = M @ Pm @ M.T + K @ R @ K.T
-        if th[12] != 0.0:
+        if th[12] != 0.0 and u.any():
+            x[4:] = 1.0 + u * np.clip(u @ (x[4:] - 1.0), *_line_box(u, th[10], th[11]))
+        elif th[12] != 0.0:
             x[4:] = np.clip(x[4:], th[10], th[11])
         nll = 0.5 * (np.log(np.linalg.det(S)) + e @ np.linalg.solve(S, e) + n * np.log(2 * np.pi))
         return x, 0.5 * (Pm + Pm.T), nll
@@ -487,8 +568,10 @@ class AdaptiveEKF(ObserverBase):
         f4, _ = model_np(x + h * f3, *args)
         x = x + h / 6 * (f1 + 2 * f2 + 2 * f3 + f4)
         F = np.eye(6) + h * A + 0.5 * h * h * A @ A
-        q = np.r_[th[:5], th[4]]
-        Pm = F @ Pm @ F.T + np.diag(q * h)
+        Q = np.diag(np.r_[th[:5], th[4]])
+        if th[13:15].any():
+            Q[4:, 4:] = th[4] * np.outer(th[13:15], th[13:15])
+        Pm = F @ Pm @ F.T + Q * h
         x, Pm, _ = self._update_np(x, Pm, u[k], y[k])
         return np.r_[x, Pm.ravel()]
 
@@ -502,14 +585,17 @@ class AdaptiveEKF(ObserverBase):
                           estimator="adaptive-ekf", info={"nll": res["nll"],
                                                           "std": np.sqrt(res["Pd"])})
 
-    def filter(self, t, vx, delta, yr, ay, x0=None) -> dict:
-        """Compiled pass; ``{"X", "Pd", "nll", "nu", "nis", "seconds"}``."""
+    def filter(self, t, vx, delta, yr, ay, x0=None, gy=None) -> dict:
+        """Compiled pass; ``{"X", "Pd", "nll", "nu", "nis", "seconds"}``. ``gy`` (N,)
+        [m/s^2]: the measured bank term ``-g sin(phi)`` (:func:`vehicle_observers.models.road.
+        lateral_gravity`; ``None``: a flat road)."""
         x0 = np.array([0.0, yr[0], 0.0, 0.0, 1.0, 1.0]) if x0 is None else np.asarray(x0, float)
         P0 = initial_covariance(self.terms, vx[0], self.tuning.rel)
         ay = np.zeros_like(yr) if ay is None else ay
         args = [np.ascontiguousarray(a, float) for a in (t, vx, delta, yr, ay)]
         t0 = time.perf_counter()
-        X, Pd, nll, nu, nis = _run(*args, self.use_ay, self.P, self.th, x0, P0)
+        gy = np.zeros(len(args[0])) if gy is None else np.ascontiguousarray(gy, float)
+        X, Pd, nll, nu, nis = _run_terms(*args, self.use_ay, self.P, self.th, x0, P0, gy)
         return {"X": X, "Pd": Pd, "nll": float(nll), "nu": nu, "nis": nis,
                 "seconds": time.perf_counter() - t0}
 

@@ -78,6 +78,7 @@ from vehicle_observers.models.lateral import (
     LateralParams,
     M,
 )
+from vehicle_observers.models.road import bank_column, body_roll_ay, lateral_gravity
 from vehicle_observers.models.tires import magic_formula_slope
 from vehicle_observers.models.vehicle import Q_B, Q_R, Q_VY, R_AY, R_R, KalmanTuning
 
@@ -86,6 +87,9 @@ NX = 3
 STATE_NAMES = ("vy_mps", "yaw_rate_radps", "ay_bias_mps2")
 #: index of each state in ``x`` (and row / column of ``P``)
 X_VY, X_R, X_B = range(3)
+#: floor of the speed-dependent stiffness factor ``1 + k_s v_x`` (a gain that would make a
+#: tyre's stiffness vanish or change sign at some speed is kept at this share instead)
+STIFFNESS_FACTOR_MIN = 0.2
 
 
 # ------------------------------------------------------------------ result ---------------
@@ -266,8 +270,22 @@ def _f2(vy, r, delta, vx, m, Iz, af, ar, Bf, Cf, Df, Ef, Br, Cr, Dr, Er):
 
 @njit(cache=True, nogil=True)
 def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
+    """EKF pass on a flat road with speed-independent tyres: :func:`_ekf_terms` without
+    the model terms."""
+    return _ekf_terms(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store,
+                      np.zeros(t.shape[0]), 0.0)
+
+
+@njit(cache=True, nogil=True)
+def _ekf_terms(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store, gy, ks):
     """EKF pass. Returns Xf, Pf (posteriors), Xp, Pp (priors), Fs (transition Jacobians from
     k to k+1) and the innovation negative log-likelihood. ``store=False`` keeps only Xf/diag.
+
+    Model terms: ``gy`` (N,) [m/s^2] the bank term ``-g sin(phi)`` of the lateral balance
+    (:mod:`vehicle_observers.models.road`; held over the step like the inputs), ``ks`` [s/m]
+    the speed gain of the cornering stiffness, ``C(v_x) = C (1 + ks v_x)`` on both axles
+    (the tyre curves' ``B`` scaled, their peaks ``D`` kept; the factor is floored at
+    :data:`STIFFNESS_FACTOR_MIN`).
 
     Written out in scalars: b_ay has no dynamics, so the RK4 map and its Jacobian act on
     (v_y, r) only and ``F = [[F2, 0], [0, 1]]``; ``H = [[0, 1, 0], [h10, h11, 1]]``."""
@@ -279,8 +297,8 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
     Pp = np.empty((N if store else 1, 3, 3))
     Fs = np.empty((N if store else 1, 3, 3))
     m, Iz, af, ar = P[M], P[I_Z], P[A_F], P[A_R]
-    Bf, Cf, Df, Ef = P[TF_B], P[TF_C], P[TF_D], P[TF_E]
-    Br, Cr, Dr, Er = P[TR_B], P[TR_C], P[TR_D], P[TR_E]
+    Bf0, Cf, Df, Ef = P[TF_B], P[TF_C], P[TF_D], P[TF_E]
+    Br0, Cr, Dr, Er = P[TR_B], P[TR_C], P[TR_D], P[TR_E]
     q0, q1, q2 = theta[Q_VY], theta[Q_R], theta[Q_B]
     if not use_ay:
         q2 = 0.0
@@ -296,7 +314,9 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
             Pp[k, 0, 0], Pp[k, 0, 1], Pp[k, 0, 2] = p00, p01, p02
             Pp[k, 1, 0], Pp[k, 1, 1], Pp[k, 1, 2] = p01, p11, p12
             Pp[k, 2, 0], Pp[k, 2, 1], Pp[k, 2, 2] = p02, p12, p22
-        dk, vk = delta[k], vx[k]
+        dk, vk, gk = delta[k], vx[k], gy[k]
+        sk = max(1.0 + ks * vk, STIFFNESS_FACTOR_MIN)
+        Bf, Br = Bf0 * sk, Br0 * sk
         # ---- update with y_k
         e0 = yr[k] - x1_
         if use_ay:
@@ -370,14 +390,17 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
             hh = 0.5 * h
             f0a, f1a, j00, j01, j10, j11 = _f2(x0_, x1_, dk, vk, m, Iz, af, ar,
                                               Bf, Cf, Df, Ef, Br, Cr, Dr, Er)
+            f0a += gk                                  # bank term (held)
             f0b, f1b, a00, a01, a10, a11 = _f2(x0_ + hh * f0a, x1_ + hh * f1a, dk, vk, m, Iz,
                                               af, ar, Bf, Cf, Df, Ef, Br, Cr, Dr, Er)
+            f0b += gk                                  # bank term (held)
             u00, u01, u10, u11 = 1.0 + hh * j00, hh * j01, hh * j10, 1.0 + hh * j11
             g00, g01 = a00 * u00 + a01 * u10, a00 * u01 + a01 * u11
             g10, g11 = a10 * u00 + a11 * u10, a10 * u01 + a11 * u11
             s00, s01, s10, s11 = j00 + 2.0 * g00, j01 + 2.0 * g01, j10 + 2.0 * g10, j11 + 2.0 * g11
             f0c, f1c, a00, a01, a10, a11 = _f2(x0_ + hh * f0b, x1_ + hh * f1b, dk, vk, m, Iz,
                                               af, ar, Bf, Cf, Df, Ef, Br, Cr, Dr, Er)
+            f0c += gk                                  # bank term (held)
             u00, u01, u10, u11 = 1.0 + hh * g00, hh * g01, hh * g10, 1.0 + hh * g11
             g00, g01 = a00 * u00 + a01 * u10, a00 * u01 + a01 * u11
             g10, g11 = a10 * u00 + a11 * u10, a10 * u01 + a11 * u11
@@ -387,6 +410,7 @@ def _ekf(t, vx, delta, yr, ay, use_ay, P, theta, x0, P0diag, store):
             s11 += 2.0 * g11
             f0d, f1d, a00, a01, a10, a11 = _f2(x0_ + h * f0c, x1_ + h * f1c, dk, vk, m, Iz,
                                               af, ar, Bf, Cf, Df, Ef, Br, Cr, Dr, Er)
+            f0d += gk                                  # bank term (held)
             u00, u01, u10, u11 = 1.0 + h * g00, h * g01, h * g10, 1.0 + h * g11
             s00 += a00 * u00 + a01 * u10
             s01 += a00 * u01 + a01 * u11
@@ -465,6 +489,12 @@ class _Inputs:
     ay: np.ndarray
     use_ay: bool
     x0: np.ndarray
+    gy: np.ndarray | None = None     # bank term -g sin(phi) [m/s^2] (None: flat road)
+
+    def terms(self, params: LateralParams) -> tuple:
+        """The model-term arguments of :func:`_ekf_terms`: ``(gy, ks)``."""
+        gy = np.zeros_like(self.t) if self.gy is None else self.gy
+        return gy, float(params.stiffness_speed)
 
 
 def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float | None = 0.1):
@@ -496,9 +526,18 @@ def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float |
     if despike_steering is not None:
         delta, _ = despike(delta, despike_steering)
     ay = np.ascontiguousarray(log.ay if use else np.zeros_like(log.t), dtype=float)
+    tilt = body_roll_ay(log) if use else None
+    if tilt is not None:                   # a roll column: the body's tilt of the sensor
+        ay = ay - tilt
     x0 = _x0(log.yaw_rate[0])
+    gy = lateral_gravity(log)
+    if gy is not None and not np.all(np.isfinite(gy)):
+        k = int(np.argmax(~np.isfinite(gy)))
+        raise ObserverArgumentError(f"{log.source or 'log'}: column {bank_column(log)!r} has a "
+                                    f"non-finite value at row {k}; the bank term needs finite "
+                                    "angles")
     return _Inputs(np.ascontiguousarray(log.t, dtype=float), np.ascontiguousarray(log.vx, float),
-                   delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0)
+                   delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0, gy)
 
 
 def _x0(yaw_rate0) -> np.ndarray:
@@ -522,11 +561,21 @@ def _p0(P0, inp: _Inputs) -> np.ndarray:
     return p
 
 
+def stiffness_factor(vx, params: LateralParams) -> np.ndarray:
+    """The speed factor ``max(1 + k_s v_x, STIFFNESS_FACTOR_MIN)`` of the cornering
+    stiffness (``k_s = params.stiffness_speed`` [s/m]; 1 when it is 0)."""
+    return np.maximum(1.0 + float(params.stiffness_speed) * np.asarray(vx, float),
+                      STIFFNESS_FACTOR_MIN)
+
+
 def _forces(X, inp: _Inputs, params: LateralParams):
-    """Axle forces [N] of the tyre model at the slip angles (4) of the estimates X (N, 3)."""
+    """Axle forces [N] of the tyre model at the slip angles (4) of the estimates X (N, 3)
+    (with the speed factor of the stiffness: a tyre curve with ``B`` scaled by ``s`` is
+    ``F(s alpha)``, for the magic formula and the linear tyre alike)."""
+    s = stiffness_factor(inp.vx, params)
     a_f = inp.delta - (X[:, X_VY] + params.a_f * X[:, X_R]) / inp.vx
     a_r = -(X[:, X_VY] - params.a_r * X[:, X_R]) / inp.vx
-    return params.tire_f.force(a_f), params.tire_r.force(a_r)
+    return params.tire_f.force(s * a_f), params.tire_r.force(s * a_r)
 
 
 # ------------------------------------------------------------------ observers ------------
@@ -678,9 +727,9 @@ class LateralEKF(_KalmanObserver):
     def _run_inputs(self, inp: _Inputs, store: bool = False) -> KalmanRun:
         d = self.design
         args = (inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, d.params.as_array(),
-                d.tuning.theta(), inp.x0, _p0(d.tuning.P0, inp), store)
+                d.tuning.theta(), inp.x0, _p0(d.tuning.P0, inp), store, *inp.terms(d.params))
         t0 = time.perf_counter()
-        Xf, Pf, Pfd, Xp, Pp, Fs, nll = _ekf(*args)
+        Xf, Pf, Pfd, Xp, Pp, Fs, nll = _ekf_terms(*args)
         sec = time.perf_counter() - t0
         Ff, Fr = _forces(Xf, inp, d.params)
         P = Pf if store else np.einsum("ki,ij->kij", Pfd, np.eye(3))
@@ -717,16 +766,19 @@ def rts(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None
 def nll(log_or_inputs, params: LateralParams, tuning: KalmanTuning) -> float:
     """Innovation negative log-likelihood of the measured channels under ``tuning``."""
     inp = log_or_inputs if isinstance(log_or_inputs, _Inputs) else prepare(log_or_inputs)
-    out = _ekf(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, params.as_array(),
-               tuning.theta(), inp.x0, _p0(tuning.P0, inp), False)
+    out = _ekf_terms(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, params.as_array(),
+                     tuning.theta(), inp.x0, _p0(tuning.P0, inp), False, *inp.terms(params))
     return float(out[-1])
 
 
 def thin(log: DriveLog, every: int) -> DriveLog:
-    """Every ``every``-th sample of the measured channels (no reference columns)."""
+    """Every ``every``-th sample of the measured channels and of the bank column
+    (:data:`vehicle_observers.models.road.BANK_COLUMNS`; no reference columns)."""
     idx = np.arange(0, len(log), int(every))
+    c = bank_column(log)
     return DriveLog(t=log.t[idx], vx=log.vx[idx], delta=log.delta[idx],
                     yaw_rate=log.yaw_rate[idx], ay=None if log.ay is None else log.ay[idx],
+                    extra={} if c is None else {c: log.extra[c][idx]},
                     source=f"{log.source} (every {every}th sample)" if every > 1 else log.source)
 
 
@@ -807,6 +859,7 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
     inp = prepare(log, use_ay)
     Parr = params.as_array()
     P0 = _p0(start.P0, inp)
+    terms = inp.terms(params)
     free = _free(inp.use_ay)
     bounds = [tuple(b) for b in TUNE_BOUNDS]
     if noise_floor:
@@ -824,8 +877,8 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
             progress(min(count[0], 2 * maxiter), 2 * maxiter)
         th = th0.copy()
         th[free] = 10.0 ** z
-        v = _ekf(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, Parr, th, inp.x0, P0,
-                 False)[-1]
+        v = _ekf_terms(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay, Parr, th, inp.x0,
+                       P0, False, *terms)[-1]
         return v if np.isfinite(v) else 1e300
 
     lo, hi = np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
@@ -857,6 +910,32 @@ def tune(log: DriveLog, params: LateralParams, start: KalmanTuning | None = None
         th, P0=start.P0,
         source=f"ML on measured channels of {log.source} ({len(inp.t)} samples, "
                f"{'r, a_y' if inp.use_ay else 'r'}; nll={res.fun:.6g}, {res.nit} iterations)")
+
+
+#: search interval of :func:`fit_stiffness_speed` [s/m] (+-0.02: the stiffness factor
+#: changes by 40 % over 20 m/s at the ends)
+STIFFNESS_SPEED_BOUNDS = (-0.02, 0.02)
+
+
+def fit_stiffness_speed(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
+                        bounds=STIFFNESS_SPEED_BOUNDS, xatol: float = 1e-4) -> tuple[float, float]:
+    """Maximum-likelihood speed gain ``k_s`` [s/m] of the cornering stiffness, ``C(v_x) = C
+    (1 + k_s v_x)`` (:class:`~vehicle_observers.models.lateral.LateralParams`
+    ``stiffness_speed``): the EKF innovation negative log-likelihood of the measured
+    channels (:func:`nll`, noise ``tuning`` held) minimised over ``bounds`` by bounded Brent
+    (``xatol`` [s/m]). Reads ``t, v_x, delta, r, a_y`` (and a bank column) only: never the
+    reference. Returns ``(k_s, nll(k_s) - nll(0))`` (negative: the data prefer ``k_s``)."""
+    from scipy.optimize import minimize_scalar
+
+    inp = prepare(log)
+
+    def f(k):
+        v = nll(inp, replace(params, stiffness_speed=float(k)), tuning)
+        return v if np.isfinite(v) else 1e300
+
+    res = minimize_scalar(f, bounds=tuple(bounds), method="bounded",
+                          options={"xatol": float(xatol)})
+    return float(res.x), float(res.fun - f(0.0))
 
 
 def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,

@@ -256,12 +256,14 @@ def _load(args, vehicle, columns=None, progress=None, spec=None):
 
 
 def _reads(log, spec):
-    """The log restricted to the schema columns ``spec`` reads (required and optional)."""
+    """The log restricted to the columns ``spec`` reads (required and optional, schema and
+    ``<quantity>_<unit>`` columns alike)."""
     from vehicle_observers.data.logs import _ATTR, DriveLog
 
     reads = set(spec.needs) | set(spec.optional_columns)
     kw = {a: getattr(log, a) for c, a in _ATTR.items() if c in reads}
-    return DriveLog(**kw, source=log.source)
+    return DriveLog(**kw, extra={c: v for c, v in log.extra.items() if c in reads},
+                    source=log.source)
 
 
 def _reference_warning(log, spec) -> str | None:

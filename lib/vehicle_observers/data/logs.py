@@ -772,6 +772,7 @@ UNIT_RANGES = {
     "mps": (-90.0, 90.0, "a speed in km/h instead of m/s?"),
     "mps2": (-25.0, 25.0, "an acceleration in ft/s^2, mm/s^2 or g instead of m/s^2?"),
     "rad": (-6.3, 6.3, "an angle in degrees instead of rad?"),
+    "deg": (-360.0, 360.0, "an angle in a unit other than degrees?"),
     "radps": (-5.0, 5.0, "an angular rate in deg/s instead of rad/s?"),
     "radps2": (-50.0, 50.0, "an angular acceleration in deg/s^2 instead of rad/s^2?"),
     "m": (-1e5, 1e5, "a length in mm instead of m?"),

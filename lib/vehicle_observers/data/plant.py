@@ -44,7 +44,8 @@ horizontal acceleration in every turn, by about ``g |phi|`` (the BMW rolls about
 g, so about 16 %). ``accelerometer="level"`` gives the level-frame ``a_y`` (a roll-compensated
 sensor). The noise-free channels are kept in ``extra`` (``vx_true_mps``, ``delta_true_rad``,
 ``yaw_rate_true_radps``, ``ay_true_mps2`` (level frame), ``ay_sensor_true_mps2`` (what the
-accelerometer reads), ``roll_rad``).
+accelerometer reads), ``roll_true_rad`` (the library's roll angle ``phi``, positive left side
+down: named as a truth channel, so no estimator reads it as an INS roll column)).
 """
 
 from __future__ import annotations
@@ -231,7 +232,7 @@ def simulate(man: Manoeuvre, vehicle_id: int = 2, seed: int = 0, noise_scale: fl
     nz = {c: rng.standard_normal(N) * sd[c] for c in NOISE_STD}     # fixed draw order
     ay_sensor = ay_s * np.cos(roll) - G * np.sin(roll) if accelerometer == "body" else ay_s
     extra = {"vx_true_mps": vx, "delta_true_rad": dl, "yaw_rate_true_radps": r,
-             "ay_true_mps2": ay_s, "ay_sensor_true_mps2": ay_sensor, "roll_rad": roll,
+             "ay_true_mps2": ay_s, "ay_sensor_true_mps2": ay_sensor, "roll_true_rad": roll,
              "delta_ref_rad": man.delta_ref.copy()}
     return DriveLog(t=man.t.copy(), vx=vx + nz["vx"], delta=dl + nz["delta"],
                     yaw_rate=r + nz["yaw_rate"], ay=ay_sensor + nz["ay"], vy=vy, Ff=Ff, Fr=Fr,

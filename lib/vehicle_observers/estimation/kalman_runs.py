@@ -23,6 +23,7 @@ from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import EstimatorSpec, register
+from vehicle_observers.models.road import BANK_COLUMNS, lateral_gravity
 from vehicle_observers.models.vehicle import KalmanTuning, Vehicle
 
 #: default ML tuning window [s] when the vehicle file has no [kalman] table
@@ -94,9 +95,11 @@ def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
     constants, the options and the source of :mod:`baselines.kalman` (a changed tuning
     never reuses an old entry)."""
     h = hashlib.sha256()      # time enters through its differences only (shift-invariant)
-    for a in (win.t - win.t[0], win.vx, win.delta, win.yaw_rate, win.ay):
+    for a in (win.t - win.t[0], win.vx, win.delta, win.yaw_rate, win.ay,
+              lateral_gravity(win)):
         h.update(b"-" if a is None else np.ascontiguousarray(a, float).tobytes())
-    h.update(repr((vehicle.params.as_array().tolist(), maxiter, rate_hz)).encode())
+    h.update(repr((vehicle.params.as_array().tolist(), vehicle.params.stiffness_speed, maxiter,
+                   rate_hz)).encode())
     h.update(Path(kalman.__file__).read_bytes())
     return h.hexdigest()
 
@@ -149,9 +152,10 @@ def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:
     and output columns only. Returns (columns, seconds of the filter loop)."""
     inp = kalman.prepare(log)
     t0 = time.perf_counter()
-    Xf, _, Pfd, *_ = kalman._ekf(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay,
-                                 vehicle.params.as_array(), tuning.theta(), inp.x0,
-                                 kalman._p0(tuning.P0, inp), False)
+    Xf, _, Pfd, *_ = kalman._ekf_terms(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay,
+                                       vehicle.params.as_array(), tuning.theta(), inp.x0,
+                                       kalman._p0(tuning.P0, inp), False,
+                                       *inp.terms(vehicle.params))
     sec = time.perf_counter() - t0
     std = np.sqrt(np.maximum(Pfd[:, 0], 0.0))
     del Pfd                                  # (N, 3): freed before the forces are computed
@@ -202,11 +206,12 @@ def _kalman_runner(fn, name, causal=True):
     return run
 
 
-_KF_DOC = ("nonlinear yaw-drift model (Yacine 2015 eq. (1), Pacejka tyres), measures yaw rate "
-           "and a_y if present; noise by ML on the first 120 s of measured channels unless the "
-           "vehicle file has [kalman]")
+_KF_DOC = ("nonlinear yaw-drift model (Yacine 2015 eq. (1), Pacejka tyres; road bank from a "
+           "bank/roll column if present), measures yaw rate and a_y if present; noise by ML "
+           "on the first 120 s of measured channels unless the vehicle file has [kalman]")
 register(EstimatorSpec("ekf", "EKF, numba (" + _KF_DOC + ")", _kalman_runner(kalman.ekf, "ekf"),
-                      optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
+                      optional_columns=("ay_mps2", *BANK_COLUMNS), paper="baseline",
+                      origin=__name__))
 register(EstimatorSpec("ekf-filterpy", "the same EKF with filterpy (slow reference)",
                       _kalman_runner(kalman.ekf_filterpy, "ekf-filterpy"),
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
@@ -219,5 +224,5 @@ register(EstimatorSpec("ukf-filterpy", "the same UKF with filterpy (slow referen
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
 register(EstimatorSpec("rts", "extended RTS smoother (OFFLINE, non-causal reference) on the EKF",
                       _kalman_runner(kalman.rts, "rts", causal=False),
-                      optional_columns=("ay_mps2",), causal=False, paper="baseline",
+                      optional_columns=("ay_mps2", *BANK_COLUMNS), causal=False, paper="baseline",
                        origin=__name__))

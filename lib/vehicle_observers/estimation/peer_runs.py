@@ -37,6 +37,7 @@ from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import estimator
+from vehicle_observers.models.road import BANK_COLUMNS, lateral_gravity
 from vehicle_observers.models.tires import LinearTire
 
 
@@ -63,7 +64,7 @@ _SELECTIONS: dict[str, SE.Selection] = {}
 
 def _key(log: DriveLog, vehicle, tag: str) -> str:
     h = hashlib.sha256(tag.encode())
-    for a in (log.t - log.t[0], log.vx, log.delta, log.yaw_rate, log.ay):
+    for a in (log.t - log.t[0], log.vx, log.delta, log.yaw_rate, log.ay, lateral_gravity(log)):
         h.update(b"-" if a is None else np.ascontiguousarray(a, float).tobytes())
     h.update(repr((vehicle.params.as_array().tolist(), sorted(vehicle.uncertainty.items())))
              .encode())
@@ -173,7 +174,7 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
         t, vx, d, r, ay = SE._arrays(sub)
         if fused is None:
             obs = AD.AdaptiveEKF(veh.params, sel.terms, sel.tuning, use_ay)
-            res = obs.filter(t, vx, d, r, ay)
+            res = obs.filter(t, vx, d, r, ay, gy=None if linear else lateral_gravity(sub))
         else:
             obs = FU.IntervalFusedEKF(veh.params, sel.terms, sel.tuning, use_ay, margin=margin)
             res = obs.filter_fused(t, vx, d, r, ay, fused[0][a:a + len(sub)],
@@ -190,15 +191,18 @@ def _run_adaptive(log: DriveLog, vehicle, name: str, linear: bool = False, fused
     tr = Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=ssec, causal=True,
                                  estimator=name, info=info)
     # the stiffness box is in the filter's covariance already (Schmidt consider states)
-    # unless the stiffness is estimated
-    considered = sel.terms.consider or sel.terms.stiffness
+    # when the stiffness is considered or estimated with both factors free; estimated along
+    # the understeer direction only, the direction steady cornering leaves unidentified (the
+    # v_y shift at fitted r and a_y) is the calibration's consider term
+    considered = sel.terms.consider or (sel.terms.stiffness and not sel.terms.understeer_only)
     return calibration.calibrate(tr, log, vehicle, consider=not considered)
 
 
 @estimator("adaptive-ekf", "EKF with the model terms (roll gradient, a_y bias, bank, stiffness "
            "adaptation, kinematic blend) chosen per log by BIC of the measured-channel "
-           "innovations; v_y std and an identifiability verdict",
-           optional_columns=("ay_mps2",), paper="this library")
+           "innovations; road bank from a bank/roll column if present; v_y std and an "
+           "identifiability verdict",
+           optional_columns=("ay_mps2", *BANK_COLUMNS), paper="this library")
 def run_adaptive(log: DriveLog, vehicle, progress=None, max_gap=segments.MAX_GAP_S,
                  candidates=None, maxiter: int = 250, cache: bool = False, **_):
     """``candidates``: the terms the selection may add (default: every term,

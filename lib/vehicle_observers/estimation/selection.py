@@ -57,6 +57,7 @@ from vehicle_observers.estimation.calibration import (
     BETA_FLOOR,  # noqa: F401  (constant-sideslip floor [rad], 0.1 deg; used by vy_std)
     MIN_SIGNAL_TO_STD,  # noqa: F401  (informative when RMS(v_y) >= this x RMS(std))
 )
+from vehicle_observers.models.road import body_roll_ay, lateral_gravity
 
 #: BIC decrease a term must bring to be added
 MIN_BIC_GAIN = 10.0
@@ -109,12 +110,12 @@ def _free(terms: AD.Terms, use_ay: bool) -> list[str]:
 
 
 def thin(log: DriveLog, rate_hz: float = TUNE_RATE_HZ) -> DriveLog:
-    """Every n-th sample so that the rate is at most ``rate_hz`` (measured channels only)."""
+    """Every n-th sample so that the rate is at most ``rate_hz`` (measured channels and the
+    bank column only: :func:`vehicle_observers.baselines.kalman.thin`)."""
+    from vehicle_observers.baselines.kalman import thin as thin_every
+
     every = max(1, int(np.floor(1.0 / (log.dt * rate_hz) + 1e-9)))
-    idx = np.arange(0, len(log), every)
-    return DriveLog(t=log.t[idx], vx=log.vx[idx], delta=log.delta[idx],
-                    yaw_rate=log.yaw_rate[idx], ay=None if log.ay is None else log.ay[idx],
-                    source=log.source)
+    return replace(thin_every(log, every), source=log.source)
 
 
 def _arrays(log: DriveLog):
@@ -122,7 +123,8 @@ def _arrays(log: DriveLog):
 
     d, _ = despike(np.asarray(log.delta, float), 0.1)
     ay = np.zeros(len(log)) if log.ay is None else log.ay
-    return log.t, log.vx, d, log.yaw_rate, ay
+    tilt = body_roll_ay(log)              # a roll column: the body's tilt of the sensor
+    return log.t, log.vx, d, log.yaw_rate, ay if tilt is None else ay - tilt
 
 
 def fit_terms(win: DriveLog, params, terms: AD.Terms, rel: float, use_ay: bool,
@@ -148,6 +150,7 @@ def fit_terms(win: DriveLog, params, terms: AD.Terms, rel: float, use_ay: bool,
                    for n in names])
     z0 = np.clip(z0, lo, hi)
     arr = _arrays(win)
+    gy = lateral_gravity(win)
 
     def tun(z):
         kw = {n: (float(v) if n in LINEAR else float(10.0 ** v)) for n, v in zip(names, z)}
@@ -155,7 +158,7 @@ def fit_terms(win: DriveLog, params, terms: AD.Terms, rel: float, use_ay: bool,
 
     def f(z):
         obs = AD.AdaptiveEKF(params, terms, tun(z), use_ay)
-        v = obs.filter(*arr)["nll"]
+        v = obs.filter(*arr, gy=gy)["nll"]
         return v if np.isfinite(v) else 1e300
 
     sim = [z0]
@@ -170,7 +173,7 @@ def fit_terms(win: DriveLog, params, terms: AD.Terms, rel: float, use_ay: bool,
     best = tun(res.x)
     best = replace(best, source=f"ML on measured channels ({len(win)} samples, terms {terms}; "
                                 f"nll={res.fun:.6g})")
-    out = AD.AdaptiveEKF(params, terms, best, use_ay).filter(*arr)
+    out = AD.AdaptiveEKF(params, terms, best, use_ay).filter(*arr, gy=gy)
     return best, float(res.fun), len(names), out
 
 

@@ -65,6 +65,10 @@ class LateralParams:
     r_r: float = 0.1
     l_s: float = 0.5
     name: str = field(default="vehicle", compare=False)
+    #: speed gain ``k_s`` [s/m] of both axles' cornering stiffness, ``C(v_x) = C (1 + k_s
+    #: v_x)`` (the tyre curves' ``B`` scaled, the peaks kept; 0: speed-independent). Read by
+    #: the Kalman filters of :mod:`vehicle_observers.baselines.kalman`.
+    stiffness_speed: float = 0.0
 
     def __post_init__(self):
         """Refuse constants no car has, naming them (a negative mass would otherwise reach
@@ -79,6 +83,11 @@ class LateralParams:
                     f"LateralParams.{k} must be a finite number "
                     f"{'> 0' if k in ('m', 'I_z', 'a_f', 'a_r') else '>= 0'} (SI units), "
                     f"got {v!r}")
+        v = self.stiffness_speed
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(v) or abs(v) > 0.1:
+            raise ObserverArgumentError(f"LateralParams.stiffness_speed must be a finite number "
+                                        f"in [-0.1, 0.1] s/m, got {v!r}")
 
     def as_array(self) -> np.ndarray:
         """Packed float vector (:data:`N_PARAMS`,) for the numba kernels, laid out by the index

@@ -10,6 +10,8 @@ Format (SI units; see ``vehicles/yacine2015.toml`` and ``vehicles/revs250lm.toml
     r_f = 0.1       # m, relaxation      (optional, default 0.1)
     r_r = 0.1       # m                  (optional, default 0.1)
     l_s = 0.5       # m, vision look-ahead (optional, default 0.5)
+    stiffness_speed = 0.0   # s/m, C(v_x) = C (1 + k v_x) on both axles (optional, default 0;
+                            # kalman.fit_stiffness_speed identifies it from measured channels)
 
     [tire_front]    # per axle (required); model = "pacejka" (B [1/rad], C, D [N], E)
     model = "pacejka"   # or model = "linear" with cornering_stiffness [N/rad]
@@ -135,7 +137,7 @@ def builtin_vehicles() -> dict[str, Path]:
 #: keys a vehicle file may hold (anything else is an error: a typo such as ``ls = 3.0`` must
 #: not be ignored silently)
 TOP_KEYS = ("name", "m", "I_z", "a_f", "a_r", "r_f", "r_r", "l_s", "tire_front", "tire_rear",
-            "uncertainty", "kalman", "terms")
+            "uncertainty", "kalman", "terms", "stiffness_speed")
 #: keys of the optional ``[terms]`` table (booleans; vehicle_observers.baselines.adaptive)
 TERM_KEYS = ("roll", "bias", "bank", "stiffness", "blend")
 TYRE_KEYS = {"pacejka": ("model", "B", "C", "D", "E"),
@@ -145,6 +147,7 @@ TYRE_KEYS = {"pacejka": ("model", "B", "C", "D", "E"),
 #: models overflow or the LMIs meaningless)
 RANGES = {"m": (50.0, 1e5), "I_z": (10.0, 1e6), "a_f": (0.1, 10.0), "a_r": (0.1, 10.0),
           "r_f": (0.0, 5.0), "r_r": (0.0, 5.0), "l_s": (0.0, 100.0),
+          "stiffness_speed": (-0.05, 0.05),
           "B": (0.1, 100.0), "C": (0.1, 5.0), "D": (10.0, 1e6), "E": (-20.0, 1.0),
           "cornering_stiffness": (100.0, 1e7),
           "uncertainty.vx_min": (0.01, 150.0), "uncertainty.vx_max": (0.1, 150.0),
@@ -247,10 +250,11 @@ def load_vehicle(path) -> Vehicle:
     rf = _num(doc, "r_f", fname, default=0.1)
     rr = _num(doc, "r_r", fname, default=0.1)
     ls = _num(doc, "l_s", fname, default=0.5)
+    ks = _num(doc, "stiffness_speed", fname, positive=False, default=0.0)
     tf = _tyre(doc, "tire_front", fname)
     tr = _tyre(doc, "tire_rear", fname)
     params = LateralParams(m=m, I_z=Iz, a_f=af, a_r=ar, tire_f=tf, tire_r=tr, r_f=rf, r_r=rr,
-                           l_s=ls, name=name)
+                           l_s=ls, name=name, stiffness_speed=ks)
     unc = {}
     if "uncertainty" in doc:
         u = doc["uncertainty"]
