@@ -918,13 +918,14 @@ def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
 def _filterpy_models(inp: _Inputs, params: LateralParams):
     Parr = params.as_array()
     state = {"k": 0}
+    # scratch of the UKF's per-sigma-point calls (filterpy copies fx's result into its
+    # sigma array at once, so one buffer serves every call)
+    F_, W_, V_, xn_ = np.empty((3, 3)), np.empty((6, 3, 3)), np.empty((5, 3)), np.empty(3)
 
     def fx(x, dt):
         k = state["k"]
-        xn = np.empty(3)
-        F = np.empty((3, 3))
-        _rk4(np.asarray(x, float), inp.delta[k], inp.vx[k], dt, Parr, xn, F)
-        return xn
+        _rk4_ws(x, inp.delta[k], inp.vx[k], dt, Parr, xn_, F_, W_, V_)
+        return xn_
 
     def jac(x, dt):
         k = state["k"]
@@ -1074,6 +1075,11 @@ class LateralUKF(_KalmanObserver):
     def _run_inputs(self, inp: _Inputs, progress=None) -> KalmanRun:
         from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
+        # the repair of P between filterpy's steps: the same decision and result as
+        # nearest_spd, compiled (the Python one was a fifth of the loop's time)
+        from vehicle_observers.baselines.ukf import SPD_FLOOR
+        from vehicle_observers.baselines.ukf import nearest_spd as spd
+
         d = self.design
         state, fx, jac, hx, Hj = _filterpy_models(inp, d.params)
         dz = len(self.output_names)
@@ -1093,21 +1099,23 @@ class LateralUKF(_KalmanObserver):
         # filterpy's UKF predicts from the stored sigma points of the last update, so the
         # sequence is predict(k-1 -> k) then update(k); the first sample is updated directly.
         kf.sigmas_f = pts.sigma_points(kf.x, kf.P)  # the prior at k = 0 is (x0, P0)
+        h_q = None
         for k in range(N):
             if progress is not None and k % 2000 == 0:
                 progress(k, N)
             if k > 0:
                 h = inp.t[k] - inp.t[k - 1]
                 state["k"] = k - 1
-                kf.Q = np.diag(q * h)
+                if h != h_q:                        # Q = diag(q) h, rebuilt when h changes
+                    kf.Q, h_q = np.diag(q * h), h
                 kf.predict(dt=h)
-                kf.P, fixed = nearest_spd(kf.P)
+                kf.P, fixed = spd(kf.P, SPD_FLOOR)
                 repairs += fixed
             state["k"] = k
             if k == 0:
                 kf.sigmas_f = pts.sigma_points(kf.x, kf.P)
             kf.update(z[k])
-            kf.P, fixed = nearest_spd(kf.P)
+            kf.P, fixed = spd(kf.P, SPD_FLOOR)
             repairs += fixed
             X[k] = kf.x
             P[k] = kf.P
