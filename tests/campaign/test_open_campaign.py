@@ -158,6 +158,7 @@ def test_dask_campaign_with_a_plugin_records_warnings_and_uncertainty(tmp_path):
     coverage / NEES written as NaN for an estimator without a standard deviation (the
     report must say n/a) or missing for one that has it (``ekf``: pooled over the samples,
     recomputed here from the rows)."""
+    pytest.importorskip("distributed")
     from campaignkit import TINY
     from vehicle_observers.campaign import read_results, report, run
 

@@ -149,3 +149,15 @@ def test_every_keeps_the_rows_of_every_column():
     assert len(d) == 100 and d.dt == pytest.approx(0.01)
     for c, v in log.columns().items():
         np.testing.assert_array_equal(d.columns()[c], v[::10])
+
+
+def test_merge_groups_keeps_every_row_and_names_every_missing_estimator():
+    """Catches a group's rows lost when the groups are merged for the metrics and claims, and
+    an estimator without a row left unnamed (not applicable, or it raised)."""
+    g1 = {"rows": [_row("a", "ekf", 0.1)], "skipped": [("a", "ts", "needs yL_m")], "errors": []}
+    g2 = {"rows": [_row("b", "ekf", 0.2), _row("b", "ukf", 0.3)], "skipped": [],
+          "errors": ["b/interval: InfeasibleDesign: x"]}
+    rows, lines = LB.merge_groups({"g1": g1, "g2": g2})
+    assert [(r["dataset"], r["observer"]) for r in rows] == [("a", "ekf"), ("b", "ekf"),
+                                                             ("b", "ukf")]
+    assert lines == ["a/ts: not applicable: needs yL_m", "b/interval: InfeasibleDesign: x"]

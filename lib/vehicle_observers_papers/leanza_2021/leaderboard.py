@@ -171,6 +171,18 @@ def run_group(group: str, quick: bool = False, seed: int = 0, progress=None) -> 
             "table": group_table(r, list(EST.available()), skipped, e)}
 
 
+def merge_groups(groups: dict) -> tuple[list[dict], list[str]]:
+    """``(rows, lines)`` of the results of :func:`run_group` (group -> result): every row,
+    and one line per estimator without a row (``dataset/estimator: not applicable: why`` or
+    the error it raised)."""
+    rows_, lines = [], []
+    for g in groups.values():
+        rows_ += g["rows"]
+        lines += [f"{d}/{o}: not applicable: {why}" for d, o, why in g["skipped"]]
+        lines += g["errors"]
+    return rows_, lines
+
+
 #: columns of :func:`group_table`
 GROUP_COLUMNS = ("dataset", "observer", "rmse_vy", "coverage_2sigma", "nees", "verdict")
 #: the cell of a quantity an estimator does not report, or of an estimator that has no row
