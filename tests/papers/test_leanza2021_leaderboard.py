@@ -161,3 +161,11 @@ def test_merge_groups_keeps_every_row_and_names_every_missing_estimator():
     assert [(r["dataset"], r["observer"]) for r in rows] == [("a", "ekf"), ("b", "ekf"),
                                                              ("b", "ukf")]
     assert lines == ["a/ts: not applicable: needs yL_m", "b/interval: InfeasibleDesign: x"]
+
+
+def test_filterpy_references_are_never_best_causal():
+    """Catches a filterpy reference named "best causal" because its round-off puts it a hair
+    below the compiled filter it checks (it is the same filter, not a candidate)."""
+    t = _table() + [_row("plant_x", "ekf-filterpy", 0.01), _row("plant_x", "ukf-filterpy", 0.01)]
+    m = LB.metrics(t)
+    assert m["lb_plant_x_best_causal_rmse_vy"][2] == "adaptive-ekf"

@@ -267,9 +267,13 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
         row[0].set_yticks(y)
         row[0].set_yticklabels(obs, fontsize=8)
     axes[0][0].invert_yaxis()
-    h = next((a for a in axes.flat if a.get_legend_handles_labels()[0]), None)
-    if h is not None:
-        h.legend(fontsize=7, loc="lower right")
-    fig.suptitle("Leaderboard: v_y RMSE relative to the open-loop linear bicycle "
-                 "(hatched: not causal; dotted / dashed: targets)", fontsize=10)
+    from matplotlib.patches import Patch
+
+    # the key in the first panel with target lines (no suptitle: tight_layout, which the
+    # report's savefig applies, lets a suptitle overlap the first row of a tall figure)
+    h = next((a for a in axes.flat if a.get_legend_handles_labels()[0]), axes.flat[0])
+    hs, ls = h.get_legend_handles_labels()
+    hs.append(Patch(facecolor="0.85", hatch="//", edgecolor="white", label="not causal"))
+    h.legend(handles=hs, fontsize=7, loc="lower right",
+             title="v_y RMSE / open loop's", title_fontsize=7)
     return fig

@@ -20,7 +20,8 @@ a consistent std), ``verdict`` (``info["verdict"]`` where given, else
 ``us_per_step``.
 
 Targets (:func:`targets`), "best causal" over the causal estimators that are not baselines
-(:data:`BASELINES`):
+(:data:`BASELINES`) nor the filterpy references (:data:`SLOW`, the compiled filters to
+round-off):
 
 * every plant manoeuvre: best causal ``<= 0.8 x`` open-loop linear bicycle and ``<= 0.85 x``
   ``linear-kf-ml`` (same vehicle file, noise by ML on the log);
@@ -270,8 +271,9 @@ def rows(data: dict, observers=None, progress=None, slow: bool = False,
 
 
 def _best_causal(rr: dict, key: str = "rmse_vy"):
+    # the filterpy references are the compiled ekf / ukf to round-off: not candidates
     c = {o: r[key] for o, r in rr.items() if r["causal"] and o not in BASELINES
-         and np.isfinite(r.get(key, np.nan))}
+         and o not in SLOW and np.isfinite(r.get(key, np.nan))}
     if not c:
         return None, float("nan")
     b = min(c, key=c.get)
