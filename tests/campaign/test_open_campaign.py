@@ -11,53 +11,10 @@ import textwrap
 import numpy as np
 import pytest
 from campaignkit import ROOT, same_bits, subprocess_env
+from plugin_sources import AX_PLUGIN, CAMPAIGN_PLUGIN
 
 #: reads the campaign logs' ax_mps2; a truth plant "kinematic" (no tyre slip dynamics)
-PLUGIN = textwrap.dedent('''
-    import numpy as np
-
-    from vehicle_observers.campaign.plants import register_plant
-    from vehicle_observers.campaign.truths import car_vehicle
-    from vehicle_observers.core.protocol import ObserverBase
-    from vehicle_observers.estimation import register_observer
-
-
-    class AxVy(ObserverBase):
-        state_names = ("vy_mps",)
-        input_names = ("vx_mps", "ax_mps2")
-        output_names = ("yaw_rate_radps", "ay_mps2")
-
-        def __init__(self, vehicle, dt, gain=2.0):
-            self.k = float(gain)
-
-        def initial_state(self, t, u, y, x0=None):
-            return np.zeros(1)
-
-        def step(self, z, k, t, u, y):
-            vx, ax = u[k - 1]
-            r, ay = y[k - 1]
-            return z + (t[k] - t[k - 1]) * (ay - vx * r - self.k * z + 0.0 * ax)
-
-        def estimate(self, z):
-            return z
-
-
-    register_observer("ax-vy-c", AxVy, "v_y from a_y - v_x r with leakage; reads ax_mps2")
-
-
-    def kinematic(car, m, rate):
-        p = car_vehicle(car).params
-        L = p.a_f + p.a_r
-        t, d, v = m.t, m.delta_ref, m.v_ref
-        beta = np.arctan(p.a_r * np.tan(d) / L)
-        r = v * np.tan(d) / L
-        Ff, Fr = p.m * v * r * p.a_r / L, p.m * v * r * p.a_f / L
-        return {"t": t, "vx": v, "delta": d, "r": r, "ay": v * r, "vy": v * np.tan(beta),
-                "Ff": Ff, "Fr": Fr}
-
-
-    register_plant("kinematic", kinematic, native_rate=100.0, cars=("bmw_320i",))
-    ''')
+PLUGIN = CAMPAIGN_PLUGIN
 
 
 def spec_text(plants='"lpv:bmw_320i"'):
@@ -185,3 +142,57 @@ def test_shipped_specs_load_and_the_small_one_runs(tmp_path):
               progress=False)
     assert res.run_now == 24 and res.failed == 0
     assert len(read_results(tmp_path / "small")) == 24
+
+
+#: the plug-in of PLUGIN with an overflow in its step (a RuntimeWarning at every step; the
+#: estimate itself stays finite)
+WARNING_PLUGIN = AX_PLUGIN.format(name="ax-vy-warns").replace(
+    "+ 0.0 * ax)", "+ 0.0 * ax + 0.0 * float(np.float64(1e308) * 10.0 > 0.0))")
+
+
+def test_dask_campaign_with_a_plugin_records_warnings_and_uncertainty(tmp_path):
+    """Catches: a Dask campaign that cannot run a plug-in estimator loaded from a ``.py``
+    path (its workers do not import it), warnings silenced instead of recorded in the rows
+    (the overflowing plug-in must show RuntimeWarnings, one per step, counted the same on
+    both engines: the rows are compared bit for bit), a report that leaves them out, and
+    coverage / NEES written as NaN for an estimator without a standard deviation (the
+    report must say n/a) or missing for one that has it (``ekf``: pooled over the samples,
+    recomputed here from the rows)."""
+    pytest.importorskip("distributed")
+    from campaignkit import TINY
+    from vehicle_observers.campaign import read_results, report, run
+
+    (tmp_path / "ax_warn_obs.py").write_text(WARNING_PLUGIN)
+    spec = {**TINY, "name": "plugin-dask", "estimators": ["ax-vy-warns", "ekf"],
+            "repetitions": 1, "references": ["open-loop-linear"], "errors": None,
+            "truth": {"plants": ["lpv:yacine2015"],
+                      "manoeuvres": [{"name": "slalom", "duration": 4.0, "vx": 12.0}]},
+            "sensors": {"distribution": "uniform", "std": {"vx": 0.0}, "bias": [{}]},
+            "lmi_map": None}
+    spec = {k: v for k, v in spec.items() if v is not None}
+    plug = (str(tmp_path / "ax_warn_obs.py"),)
+    run(spec, tmp_path / "serial", engine="serial", progress=False, plugins=plug)
+    run(spec, tmp_path / "dask", engine="dask", workers=1, progress=False, plugins=plug)
+    a, b = read_results(tmp_path / "serial"), read_results(tmp_path / "dask")
+    assert same_bits(a, b) == []
+    rows = a.to_pylist()
+    assert all(r["ok"] for r in rows), [r["error"] for r in rows if not r["ok"]]
+    warn = [r for r in rows if r["estimator"] == "ax-vy-warns"]
+    assert warn and all(r["warnings"] > 100 for r in warn)
+    kinds = json.loads(warn[0]["warning_kinds"])
+    assert list(kinds) == ["RuntimeWarning"] and "overflow" in kinds["RuntimeWarning"]["first"]
+    assert all(r["warnings"] == 0 for r in rows if r["estimator"] != "ax-vy-warns")
+    t = report.tables(tmp_path / "serial")
+    w = {r["estimator"]: r for r in t["warnings"]}
+    assert set(w) == {"ax-vy-warns"} and w["ax-vy-warns"]["count"] == sum(r["warnings"]
+                                                                          for r in warn)
+    u = {r["estimator"]: r for r in t["uncertainty"]}
+    assert u["ax-vy-warns"]["coverage_2sigma"] == report.NA == u["ax-vy-warns"]["mean_nees"]
+    assert u["open-loop-linear"]["mean_nees"] == report.NA
+    ekf = [r for r in rows if r["estimator"] == "ekf"]
+    n = np.array([r["samples"] for r in ekf], float)
+    cov = np.array([r["coverage_vy"] for r in ekf])
+    assert np.all((cov >= 0) & (cov <= 1))
+    assert u["ekf"]["coverage_2sigma"] == pytest.approx(np.sum(cov * n) / n.sum(), rel=1e-12)
+    assert u["ekf"]["mean_nees"] == pytest.approx(
+        np.sum([r["nees_vy"] for r in ekf] * n) / n.sum(), rel=1e-12)

@@ -62,6 +62,39 @@ def test_conservatism_and_failures(rep):
     assert s[0]["max_feasible_rel"] == 0.05 < s[0]["metzler_bound"] < 0.3
 
 
+def test_uncertainty_table_per_estimator_and_plant(rep):
+    """Catches coverage / NEES averaged over runs instead of pooled over the scored samples
+    (recomputed here from the rows, weighted by ``samples``), a table keyed by estimator only
+    (one row per truth plant is wanted), and NaN cells for estimators that report no std or
+    whose every run failed (they must read n/a). The EKF's std is its own covariance plus the
+    calibration terms, so its coverage must lie in [0, 1] and its NEES be positive; nothing
+    more is asserted about their values here (the benchmark grades them)."""
+    t, rows = rep
+    u = {(r["estimator"], r["plant"]): r for r in t["uncertainty"]}
+    ests = {r["estimator"] for r in rows}
+    plants = {f"{r['plant']}:{r['car']}" for r in rows}
+    assert set(u) == {(e, p) for e in ests for p in plants}
+    for (e, p), r in u.items():
+        ok = [x for x in rows if x["ok"] and x["estimator"] == e
+              and f"{x['plant']}:{x['car']}" == p]
+        has_std = [x for x in ok if np.isfinite(x["coverage_vy"])]
+        if not has_std:
+            assert r["coverage_2sigma"] == R.NA and r["mean_nees"] == R.NA, r
+            continue
+        n = np.array([x["samples"] for x in has_std], float)
+        cov = np.array([x["coverage_vy"] for x in has_std])
+        nees = np.array([x["nees_vy"] for x in has_std])
+        assert r["coverage_2sigma"] == pytest.approx(np.sum(cov * n) / n.sum(), rel=1e-12)
+        assert r["mean_nees"] == pytest.approx(np.sum(nees * n) / n.sum(), rel=1e-12)
+    assert all(isinstance(u[("ekf", p)]["coverage_2sigma"], float) for p in plants)
+    assert all(u[("ekf", p)]["mean_nees"] > 0 for p in plants)
+    assert u[("open-loop-linear", "lpv:yacine2015")]["coverage_2sigma"] == R.NA
+    # the BMW's interval design is infeasible: every run failed, no RMSE either
+    assert u[("interval-ifqir2017", "lpv:bmw_320i")]["median_rmse_vy"] == R.NA
+    assert all(not (isinstance(v, float) and np.isnan(v)) for r in u.values()
+               for v in r.values())
+
+
 def test_cli_report(tiny_serial, tmp_path):
     import shutil
 
@@ -73,7 +106,13 @@ def test_cli_report(tiny_serial, tmp_path):
                        timeout=180)
     assert p.returncode == 0, p.stderr
     assert "interval-ifqir2017     failed 8/16" in p.stdout
+    assert "ekf                    on lpv:yacine2015: median v_y RMSE " in p.stdout
+    assert "2-sigma coverage n/a, mean NEES n/a" in p.stdout    # open-loop-linear
+    summary = (dst / "report" / "summary.md").read_text()
+    sec = summary.split("## Reported uncertainty of v_y per truth plant")[1].split("##")[0]
+    assert "| ekf | lpv:yacine2015 |" in sec and "nan" not in sec.lower()
     for f in ("errors.csv", "conservatism.csv", "lmi_map.csv", "failures.csv", "summary.md",
+              "uncertainty.csv", "warnings.csv",
               "error_effect.png", "conservatism.png", "feasibility.png", "failures.png"):
         assert (dst / "report" / f).stat().st_size > 0, f
     p = subprocess.run([PY, "-m", "vehicle_observers", "campaign", "report", str(tmp_path)],

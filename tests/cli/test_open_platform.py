@@ -13,42 +13,11 @@ import textwrap
 
 import numpy as np
 import pytest
+from plugin_sources import AX_PLUGIN
 from vehicle_observers.cli.main import main
 from vehicle_observers.core.protocol import run_readable
 from vehicle_observers.data.logs import load_log, revs_log_path, write_csv
 from vehicle_observers.estimation import registry
-
-#: a v_y observer reading the Revs log's longitudinal accelerometer (not a schema column):
-#: dv_y/dt = a_y - v_x r - gain v_y + 0 * a_x, explicit Euler, readable step only
-AX_PLUGIN = '''
-import numpy as np
-
-from vehicle_observers.core.protocol import ObserverBase
-from vehicle_observers.estimation import register_observer
-
-
-class AxVy(ObserverBase):
-    state_names = ("vy_mps",)
-    input_names = ("vx_mps", "ax_mps2")
-    output_names = ("yaw_rate_radps", "ay_mps2")
-
-    def __init__(self, vehicle, dt, gain=2.0):
-        self.k = float(gain)
-
-    def initial_state(self, t, u, y, x0=None):
-        return np.zeros(1)
-
-    def step(self, z, k, t, u, y):
-        vx, ax = u[k - 1]
-        r, ay = y[k - 1]
-        return z + (t[k] - t[k - 1]) * (ay - vx * r - self.k * z + 0.0 * ax)
-
-    def estimate(self, z):
-        return z
-
-
-register_observer("{name}", AxVy, "v_y from a_y - v_x r with leakage; reads ax_mps2")
-'''
 
 
 @pytest.fixture(scope="module")
@@ -172,9 +141,10 @@ def test_plugin_exception_is_exit_3_naming_plugin_file_and_line(capsys, plugins,
 
 def test_debug_shows_the_traceback_and_warnings_reach_the_user(plugins, revs60, tmp_path):
     """Catches a global warnings filter / ``np.errstate(all="ignore")`` hiding a plug-in's
-    numerical problem (log of a negative number: NaN, then refused as NaN output), and
-    ``--debug`` not showing the traceback. A separate process: pytest records warnings
-    itself."""
+    numerical problem (log of a negative number: NaN, then refused as NaN output), the NaN
+    output of a plug-in reported as bad input (exit 2) instead of the plug-in's error (exit
+    3, naming the file:line of its ``step``), and ``--debug`` not showing the traceback. A
+    separate process: pytest records warnings itself."""
     import subprocess
     import sys
 
@@ -189,13 +159,17 @@ def test_debug_shows_the_traceback_and_warnings_reach_the_user(plugins, revs60, 
     assert code == 3 and "Traceback (most recent call last)" in err
     assert "name 'axx' is not defined" in err and "name_error_obs.py" in err
     f = plugins / "warn_obs.py"
+    step = 1 + next(i for i, ln in enumerate(f.read_text().splitlines())
+                    if ln.strip().startswith("def step("))
     code, err = cli("--plugin", f, "--debug", *common, "warn")
-    assert code == 2 and "RuntimeWarning: invalid value encountered in log" in err, err
+    assert code == 3 and "RuntimeWarning: invalid value encountered in log" in err, err
     code, err = cli("--plugin", f, *common, "warn")
     lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 2, err
+    assert code == 3 and len(lines) == 2, err
     assert lines[0].startswith("warning: plug-in code raised ") and f"{f}:" in lines[0]
-    assert "NaN/inf" in lines[1]
+    assert "plug-in estimator 'warn' produced" in lines[1] and "NaN/inf" in lines[1]
+    assert f"{f}:{step} (in AxVy.step)" in lines[1] and "no output written" in lines[1]
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("observer", ["mbds-kf", "mbds-fg", "mbds-fg-lag5", "vy-zero",

@@ -321,12 +321,17 @@ def test_output_has_normal_permissions_and_flags(capsys, tmp_path, cruise, car):
 
 
 def test_nan_or_diverged_output_is_an_error_not_a_result():
+    """A built-in estimator's NaN output is a CLIError (exit 2: its input made it diverge);
+    a plug-in's NaN output is tested in test_open_platform (exit 3)."""
+    from vehicle_observers.estimation import registry
+
+    ekf = registry.get("ekf")
     t = np.arange(3.0)
     with pytest.raises(CLIError, match="produced 1 NaN/inf value\\(s\\) in 'vy_mps', first at row 1"):
-        _check_output("ekf", {"t_s": t, "vy_mps": np.array([0.0, np.nan, 0.0])}, False)
+        _check_output(ekf, {"t_s": t, "vy_mps": np.array([0.0, np.nan, 0.0])}, False)
     with pytest.raises(CLIError, match="diverged: 'vy_mps' = 49"):
-        _check_output("ekf", {"t_s": t, "vy_mps": np.array([0.0, 49.0, 0.0])}, False)
-    _check_output("ekf", {"t_s": t, "vy_mps": np.array([0.0, 49.0, 0.0])}, True)
+        _check_output(ekf, {"t_s": t, "vy_mps": np.array([0.0, 49.0, 0.0])}, False)
+    _check_output(ekf, {"t_s": t, "vy_mps": np.array([0.0, 49.0, 0.0])}, True)
 
 
 def _spawn(log, veh, out, observer="ekf-filterpy"):

@@ -154,9 +154,11 @@ def test_independent_plant_section(m):
 
 
 def test_leaderboard_section(m):
-    """Leaderboard (quick: the Revs log's first 30 s, two short plant manoeuvres): v_y = 0
-    recomputed from the log, the target ratios from the stored rows, and every target claim
-    (kind "target", a "chosen here" source) judged by its limit."""
+    """Leaderboard (quick: the Revs log's first 30 s, the plant's three cars on short
+    manoeuvres, the emulated sine with dwell): v_y = 0 recomputed from the log, the target
+    ratios from the stored rows, every dataset group present with ``auto`` and the filterpy
+    references, and every target claim (kind "target", a "chosen here" source) judged by its
+    limit, three per dataset (two ratios or the Revs pair, and v_y = 0)."""
     from vehicle_observers_papers.leanza_2021 import leaderboard as LB
 
     log = load_revs()
@@ -171,9 +173,15 @@ def test_leaderboard_section(m):
         # the best causal estimator is one of the rows and not a baseline
         assert best in {v for o, v in rm.items() if o not in LB.BASELINES}
         assert m[f"lb_{ds}_best_over_vy_zero"] == pytest.approx(best / rm["vy-zero"], rel=2 * REL)
+    datasets = {k.split(".")[1] for k in m if k.startswith("lb.") and k.endswith(".rmse_vy")}
+    assert datasets == {"revs", "plant1_sine_with_dwell", "plant_sine_with_dwell", "plant_slalom",
+                        "plant3_sine_with_dwell", "emu_swd"}
+    for ds in datasets:
+        assert {f"lb.{ds}.{o}.rmse_vy" for o in ("auto", "ukf-filterpy", "ekf-filterpy")} <= set(m)
+        assert f"lb.{ds}.auto.uninformative" in m
     claims = [c for c in m["_doc"]["claims"] if c["paper"] == "leaderboard target"]
     n_cov = sum(1 for k in m if k.startswith("lb.") and k.endswith(".coverage_2sigma"))
-    assert len([c for c in claims if "coverage" not in c["item"]]) == 9
+    assert len([c for c in claims if "coverage" not in c["item"]]) == 3 * len(datasets)
     assert len([c for c in claims if "coverage" in c["item"]]) == n_cov   # one per std
     for c in claims:
         assert c["kind"] == "target" and c["rule_def"]["source"].startswith("chosen here:")

@@ -96,3 +96,76 @@ def test_slow_names_exactly_the_pure_python_filterpy_references():
     assert filterpy == {"ekf-filterpy", "ukf-filterpy"}
     assert set(LB.SLOW) == filterpy and set(runs.SLOW) == filterpy
     assert "numba" in specs["ukf"].description
+
+
+def test_ratio_targets_graded_on_every_dataset_but_revs():
+    """Catches the claims grading the open-loop / linear-KF targets only on datasets named
+    ``plant_*`` (car 2) while :func:`targets` computes them on the other cars' and the
+    emulated runs too: claims and targets must list the same items for every dataset."""
+    from vehicle_observers.results.reporting import Report
+
+    table = _table()
+    for ds in ("plant3_x", "emu_swd"):
+        table += [{**r, "dataset": ds} for r in _table() if r["dataset"] == "plant_x"]
+    rep = Report("t", None, show=False)
+    rep.record(metrics=LB.metrics(table))
+    rep.record(claims=LB.claims(table))
+    items = {c.item for c in rep.claims}
+    assert items == {f"{t['dataset']}: {t['target']}" for t in LB.targets(table)}
+    for ds in ("plant3_x", "emu_swd"):
+        assert f"{ds}: best causal <= 0.8 x open loop" in items
+        assert f"{ds}: best causal <= 0.85 x linear KF" in items
+
+
+def test_group_table_has_every_estimator_and_no_nan():
+    """Catches an estimator silently missing from a group's table (not applicable, or it
+    raised: the reason must be shown), and NaN cells for quantities an estimator does not
+    report (coverage / NEES of an estimator without a std must read n/a); the verdict and
+    the uninformative flag of every row reach the metrics."""
+    rows = [_row("d1", "ekf", 0.1, coverage_2sigma=0.9, nees=1.2, verdict="informative"),
+            _row("d1", "vy-zero", 0.3, verdict="uninformative")]
+    t = LB.group_table(rows, ["ekf", "ts-yacine2015", "interval-ifqir2017", "vy-zero"],
+                       skipped=[("d1", "ts-yacine2015", "needs column 'yL_m'")],
+                       errors=["d1/interval-ifqir2017: InfeasibleDesign: Metzler (20)"])
+    by = {r["observer"]: r for r in t}
+    assert list(by) == ["ekf", "ts-yacine2015", "interval-ifqir2017", "vy-zero"]
+    assert by["ekf"]["coverage_2sigma"] == 0.9 and by["ekf"]["nees"] == 1.2
+    assert by["vy-zero"]["coverage_2sigma"] == LB.NA == by["vy-zero"]["nees"]
+    assert by["ts-yacine2015"]["verdict"] == "not applicable: needs column 'yL_m'"
+    assert by["interval-ifqir2017"]["verdict"].startswith("failed: InfeasibleDesign")
+    assert all(not (isinstance(v, float) and np.isnan(v)) for r in t for v in r.values())
+    m = LB.metrics(rows)
+    assert m["lb.d1.vy-zero.uninformative"][0] == 1 and m["lb.d1.ekf.uninformative"][0] == 0
+
+
+def test_every_keeps_the_rows_of_every_column():
+    """Catches a decimation that drops a column (the emulated truth ``vx_true_mps`` used by
+    the score mask, or the reference ``vy_mps``) or misaligns them."""
+    n = 1000
+    t = np.arange(n) * 0.001
+    log = DriveLog(t=t, vx=10 + t, delta=0.01 * np.sin(t), yaw_rate=np.cos(t), vy=np.sin(3 * t),
+                   extra={"vx_true_mps": 10 + 2 * t})
+    d = LB.every(log, 10)
+    assert len(d) == 100 and d.dt == pytest.approx(0.01)
+    for c, v in log.columns().items():
+        np.testing.assert_array_equal(d.columns()[c], v[::10])
+
+
+def test_merge_groups_keeps_every_row_and_names_every_missing_estimator():
+    """Catches a group's rows lost when the groups are merged for the metrics and claims, and
+    an estimator without a row left unnamed (not applicable, or it raised)."""
+    g1 = {"rows": [_row("a", "ekf", 0.1)], "skipped": [("a", "ts", "needs yL_m")], "errors": []}
+    g2 = {"rows": [_row("b", "ekf", 0.2), _row("b", "ukf", 0.3)], "skipped": [],
+          "errors": ["b/interval: InfeasibleDesign: x"]}
+    rows, lines = LB.merge_groups({"g1": g1, "g2": g2})
+    assert [(r["dataset"], r["observer"]) for r in rows] == [("a", "ekf"), ("b", "ekf"),
+                                                             ("b", "ukf")]
+    assert lines == ["a/ts: not applicable: needs yL_m", "b/interval: InfeasibleDesign: x"]
+
+
+def test_filterpy_references_are_never_best_causal():
+    """Catches a filterpy reference named "best causal" because its round-off puts it a hair
+    below the compiled filter it checks (it is the same filter, not a candidate)."""
+    t = _table() + [_row("plant_x", "ekf-filterpy", 0.01), _row("plant_x", "ukf-filterpy", 0.01)]
+    m = LB.metrics(t)
+    assert m["lb_plant_x_best_causal_rmse_vy"][2] == "adaptive-ekf"

@@ -997,13 +997,14 @@ def tuning_report(log: DriveLog, params: LateralParams, tuning: KalmanTuning,
 def _filterpy_models(inp: _Inputs, params: LateralParams):
     Parr = params.as_array()
     state = {"k": 0}
+    # scratch of the UKF's per-sigma-point calls (filterpy copies fx's result into its
+    # sigma array at once, so one buffer serves every call)
+    F_, W_, V_, xn_ = np.empty((3, 3)), np.empty((6, 3, 3)), np.empty((5, 3)), np.empty(3)
 
     def fx(x, dt):
         k = state["k"]
-        xn = np.empty(3)
-        F = np.empty((3, 3))
-        _rk4(np.asarray(x, float), inp.delta[k], inp.vx[k], dt, Parr, xn, F)
-        return xn
+        _rk4_ws(x, inp.delta[k], inp.vx[k], dt, Parr, xn_, F_, W_, V_)
+        return xn_
 
     def jac(x, dt):
         k = state["k"]
@@ -1069,7 +1070,11 @@ def ekf_filterpy(log: DriveLog, params: LateralParams, tuning: KalmanTuning | No
                 {"use_ay": inp.use_ay, "tuning": tuning})
 
 
-def nearest_spd(P, floor: float = 1e-12):
+#: eigenvalue floor of :func:`nearest_spd`, relative to the largest eigenvalue
+SPD_FLOOR = 1e-12
+
+
+def nearest_spd(P, floor: float = SPD_FLOOR):
     """Symmetrise ``P`` and floor its eigenvalues at ``floor`` x its largest one so that
     ``cholesky`` succeeds. Returns ``(P_new, repaired)`` (``repaired``: an eigenvalue was
     raised)."""
@@ -1079,6 +1084,44 @@ def nearest_spd(P, floor: float = 1e-12):
     if w.min() >= lo:
         return S, False
     w = np.maximum(w, lo)
+    S = (V * w) @ V.T
+    return 0.5 * (S + S.T), True
+
+
+@njit(cache=True)
+def _sym_eig_extremes(A):
+    """Smallest and largest eigenvalue of a symmetric 3x3 matrix in closed form
+    (trigonometric solution of the characteristic cubic; absolute error ~1e-16 ||A||)."""
+    p1 = A[0, 1] * A[0, 1] + A[0, 2] * A[0, 2] + A[1, 2] * A[1, 2]
+    q = (A[0, 0] + A[1, 1] + A[2, 2]) / 3.0
+    if p1 == 0.0:
+        return min(A[0, 0], A[1, 1], A[2, 2]), max(A[0, 0], A[1, 1], A[2, 2])
+    b00, b11, b22 = A[0, 0] - q, A[1, 1] - q, A[2, 2] - q
+    p = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * p1) / 6.0)
+    det = (b00 * (b11 * b22 - A[1, 2] * A[1, 2]) - A[0, 1] * (A[0, 1] * b22 - A[1, 2] * A[0, 2])
+           + A[0, 2] * (A[0, 1] * A[1, 2] - b11 * A[0, 2]))
+    r = min(max(det / (2.0 * p * p * p), -1.0), 1.0)
+    phi = np.arccos(r) / 3.0
+    return q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0), q + 2.0 * p * np.cos(phi)
+
+
+@njit(cache=True)
+def nearest_spd_kernel(P, floor):
+    """Kernel of :func:`vehicle_observers.baselines.kalman.nearest_spd`: ``(P + P^T) / 2``
+    with its eigenvalues floored at ``floor`` x the largest. Returns ``(P_new, repaired)``.
+    The eigenvalues are taken in closed form; near the floor (within x100, where that form's
+    round-off could flip the decision) and for a repair LAPACK's ``eigh`` is used, as in the
+    reference."""
+    S = 0.5 * (P + P.T)
+    wmin, wmax = _sym_eig_extremes(S)
+    if wmin >= 100.0 * floor * max(wmax, 1e-300):
+        return S, False
+    w, V = np.linalg.eigh(S)
+    lo = floor * max(w.max(), 1e-300)
+    if w.min() >= lo:
+        return S, False
+    for i in range(w.shape[0]):
+        w[i] = max(w[i], lo)
     S = (V * w) @ V.T
     return 0.5 * (S + S.T), True
 
@@ -1153,6 +1196,7 @@ class LateralUKF(_KalmanObserver):
     def _run_inputs(self, inp: _Inputs, progress=None) -> KalmanRun:
         from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
+
         d = self.design
         state, fx, jac, hx, Hj = _filterpy_models(inp, d.params)
         dz = len(self.output_names)
@@ -1172,21 +1216,25 @@ class LateralUKF(_KalmanObserver):
         # filterpy's UKF predicts from the stored sigma points of the last update, so the
         # sequence is predict(k-1 -> k) then update(k); the first sample is updated directly.
         kf.sigmas_f = pts.sigma_points(kf.x, kf.P)  # the prior at k = 0 is (x0, P0)
+        h_q = None
+        # P is repaired between filterpy's steps by the compiled kernel (the same decision
+        # and result as nearest_spd; the Python one was a fifth of the loop's time)
         for k in range(N):
             if progress is not None and k % 2000 == 0:
                 progress(k, N)
             if k > 0:
                 h = inp.t[k] - inp.t[k - 1]
                 state["k"] = k - 1
-                kf.Q = np.diag(q * h)
+                if h != h_q:                        # Q = diag(q) h, rebuilt when h changes
+                    kf.Q, h_q = np.diag(q * h), h
                 kf.predict(dt=h)
-                kf.P, fixed = nearest_spd(kf.P)
+                kf.P, fixed = nearest_spd_kernel(kf.P, SPD_FLOOR)
                 repairs += fixed
             state["k"] = k
             if k == 0:
                 kf.sigmas_f = pts.sigma_points(kf.x, kf.P)
             kf.update(z[k])
-            kf.P, fixed = nearest_spd(kf.P)
+            kf.P, fixed = nearest_spd_kernel(kf.P, SPD_FLOOR)
             repairs += fixed
             X[k] = kf.x
             P[k] = kf.P

@@ -32,22 +32,23 @@ import time
 import numpy as np
 from numba import njit
 
-from vehicle_observers.baselines.kalman import (
+from vehicle_observers.baselines.kalman import (  # SPD_FLOOR: nearest_spd's eigenvalue floor
     BETA0_STD,
+    SPD_FLOOR,
     KalmanRun,
     _meas,
     _rk4,
+    _sym_eig_extremes,  # noqa: F401 - part of this module's interface (tests)
     kalman_run,
     prepare,
 )
+from vehicle_observers.baselines.kalman import nearest_spd_kernel as nearest_spd
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.models.lateral import LateralParams
 from vehicle_observers.models.vehicle import KalmanTuning
 
 #: Merwe scaled sigma points of the reference filter (:func:`kalman.ukf_filterpy`)
 ALPHA, BETA, KAPPA = 0.1, 2.0, 0.0
-#: eigenvalue floor of :func:`nearest_spd`, relative to the largest eigenvalue
-SPD_FLOOR = 1e-12
 
 
 @njit(cache=True)
@@ -89,44 +90,6 @@ def _sigma_points(x, P, lam, sig, U, tmp):
             sig[k + 1, j] = x[j] + U[k, j]
             sig[3 + k + 1, j] = x[j] - U[k, j]
     return True
-
-
-@njit(cache=True)
-def _sym_eig_extremes(A):
-    """Smallest and largest eigenvalue of a symmetric 3x3 matrix in closed form
-    (trigonometric solution of the characteristic cubic; absolute error ~1e-16 ||A||)."""
-    p1 = A[0, 1] * A[0, 1] + A[0, 2] * A[0, 2] + A[1, 2] * A[1, 2]
-    q = (A[0, 0] + A[1, 1] + A[2, 2]) / 3.0
-    if p1 == 0.0:
-        return min(A[0, 0], A[1, 1], A[2, 2]), max(A[0, 0], A[1, 1], A[2, 2])
-    b00, b11, b22 = A[0, 0] - q, A[1, 1] - q, A[2, 2] - q
-    p = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * p1) / 6.0)
-    det = (b00 * (b11 * b22 - A[1, 2] * A[1, 2]) - A[0, 1] * (A[0, 1] * b22 - A[1, 2] * A[0, 2])
-           + A[0, 2] * (A[0, 1] * A[1, 2] - b11 * A[0, 2]))
-    r = min(max(det / (2.0 * p * p * p), -1.0), 1.0)
-    phi = np.arccos(r) / 3.0
-    return q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0), q + 2.0 * p * np.cos(phi)
-
-
-@njit(cache=True)
-def nearest_spd(P, floor):
-    """Kernel of :func:`vehicle_observers.baselines.kalman.nearest_spd`: ``(P + P^T) / 2``
-    with its eigenvalues floored at ``floor`` x the largest. Returns ``(P_new, repaired)``.
-    The eigenvalues are taken in closed form; near the floor (within x100, where that form's
-    round-off could flip the decision) and for a repair LAPACK's ``eigh`` is used, as in the
-    reference."""
-    S = 0.5 * (P + P.T)
-    wmin, wmax = _sym_eig_extremes(S)
-    if wmin >= 100.0 * floor * max(wmax, 1e-300):
-        return S, False
-    w, V = np.linalg.eigh(S)
-    lo = floor * max(w.max(), 1e-300)
-    if w.min() >= lo:
-        return S, False
-    for i in range(w.shape[0]):
-        w[i] = max(w[i], lo)
-    S = (V * w) @ V.T
-    return 0.5 * (S + S.T), True
 
 
 @njit(cache=True, nogil=True)

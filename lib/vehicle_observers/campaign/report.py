@@ -21,7 +21,14 @@ writes ``DIR/report/`` (CSV tables, ``summary.md``, PNG figures) from the rows o
   car, coordinate change and speed range, the largest feasible box half-width beside the
   analytic Metzler bound of the untransformed observer
   (``UncertainBicycle.max_metzler_uncertainty``).
+* :func:`uncertainty_table` - per estimator and truth plant (``plant:car``): the median
+  ``v_y`` RMSE beside the 2-sigma coverage of the reported ``vy_std_mps`` and the mean NEES,
+  both pooled over every scored sample of the successful runs (``n/a`` for an estimator that
+  reports no standard deviation).
 * :func:`failure_table` - failure rate per estimator and its most frequent error.
+* :func:`warning_table` - warnings raised while the tasks ran (recorded per task by
+  :func:`vehicle_observers.campaign.tasks.recorded_warnings`, never silenced): per estimator
+  and category, the tasks that raised it, the number of occurrences and the first message.
 * :func:`best_table` - the estimator with the smallest median ``v_y`` RMSE per plant and
   parameter error (the best per region).
 """
@@ -167,6 +174,55 @@ def lmi_table(out, spec=None) -> tuple[list[dict], list[dict]]:
             s["max_feasible_rel"] = r["stiffness_rel"] if not np.isfinite(s["max_feasible_rel"]) \
                 else max(s["max_feasible_rel"], r["stiffness_rel"])
     return rows, list(summ.values())
+
+
+#: the cell of a quantity an estimator does not report (never NaN in a table)
+NA = "n/a"
+
+
+def uncertainty_table(df) -> list[dict]:
+    """Rows ``estimator, plant, n, failed, median_rmse_vy, coverage_2sigma, mean_nees`` per
+    estimator and truth plant (``plant:car``). Coverage and NEES are pooled over the scored
+    samples of the successful runs: a run's share weighted by its number of samples, which
+    is the share over all of them (:func:`vehicle_observers.core.metrics.coverage_2sigma`,
+    :func:`~vehicle_observers.core.metrics.mean_nees`); :data:`NA` where the estimator gives no
+    ``vy_std_mps`` (or no run succeeded)."""
+    import polars as pl
+
+    d = df.with_columns((pl.col("plant") + ":" + pl.col("car")).alias("_truth"))
+    out = []
+    for (est, tr), g in ((k, g) for k, g in d.group_by(["estimator", "_truth"],
+                                                         maintain_order=True)):
+        good = g.filter(pl.col("ok"))
+        med, _ = _stats(good["rmse_vy"].to_list())
+        row = {"estimator": est, "plant": tr, "n": len(g), "failed": len(g) - len(good),
+               "median_rmse_vy": med if np.isfinite(med) else NA}
+        for col, name in (("coverage_vy", "coverage_2sigma"), ("nees_vy", "mean_nees")):
+            v = np.array(good[col].to_list(), float) if len(good) else np.array([])
+            w = np.array(good["samples"].to_list(), float) if len(good) else np.array([])
+            keep = np.isfinite(v) & (w > 0)
+            row[name] = float(np.sum(v[keep] * w[keep]) / np.sum(w[keep])) if keep.any() else NA
+        out.append(row)
+    return out
+
+
+def warning_table(df) -> list[dict]:
+    """Rows ``estimator, category, tasks, count, first_message``: the warnings the tasks of
+    each estimator raised (columns ``warnings`` / ``warning_kinds`` of the rows), the first
+    message of the first task (in task order) that raised that category."""
+    import json
+
+    import polars as pl
+
+    out: dict = {}
+    w = df.filter(pl.col("warnings") > 0).sort("task")
+    for est, kinds in zip(w["estimator"].to_list(), w["warning_kinds"].to_list()):
+        for cat, v in json.loads(kinds).items():
+            r = out.setdefault((est, cat), {"estimator": est, "category": cat, "tasks": 0,
+                                            "count": 0, "first_message": v["first"][:120]})
+            r["tasks"] += 1
+            r["count"] += int(v["count"])
+    return list(out.values())
 
 
 def failure_table(df) -> list[dict]:
@@ -374,20 +430,25 @@ def tables(out) -> dict:
     if len(df):
         errs = error_table(df, spec.doc["errors"]["design"])
         res.update(errors=errs, conservatism=conservatism_table(df), failures=failure_table(df),
-                   best=best_table(errs, exclude=tuple(REFERENCES.values())))
+                   best=best_table(errs, exclude=tuple(REFERENCES.values())),
+                   uncertainty=uncertainty_table(df), warnings=warning_table(df))
     else:
-        res.update(errors=[], conservatism=[], failures=[], best=[])
+        res.update(errors=[], conservatism=[], failures=[], best=[], uncertainty=[], warnings=[])
     res["lmi_points"], res["lmi_summary"] = lmi_table(out, spec)
     return res
 
 
-def _csv(path: Path, rows: list[dict]):
+#: header of an empty table's CSV (a campaign whose tasks raised no warning)
+HEADERS = {"warnings": ("estimator", "category", "tasks", "count", "first_message")}
+
+
+def _csv(path: Path, rows: list[dict], header=()):
     import csv
 
     with open(path, "w", newline="") as fh:
-        if not rows:
+        if not rows and not header:
             return
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else list(header))
         w.writeheader()
         for r in rows:
             w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
@@ -405,7 +466,8 @@ def _md(rows: list[dict], digits: int = 4) -> list[str]:
 def write_report(out, dest=None) -> dict:
     """Write the report of campaign folder ``out`` into ``dest`` (default ``out/report``):
     ``errors.csv``, ``conservatism.csv``, ``lmi_map.csv``, ``lmi_summary.csv``,
-    ``failures.csv``, ``best.csv``, ``summary.md`` and the figures (PNG). Returns the tables
+    ``failures.csv``, ``best.csv``, ``uncertainty.csv``, ``warnings.csv``, ``summary.md``
+    and the figures (PNG). Returns the tables
     and ``files``."""
     from vehicle_observers.campaign.spec import SpecError
 
@@ -427,10 +489,11 @@ def _write(dest: Path, t: dict) -> dict:
     import matplotlib.pyplot as plt
 
     names = {"errors": "errors", "conservatism": "conservatism", "lmi_points": "lmi_map",
-             "lmi_summary": "lmi_summary", "failures": "failures", "best": "best"}
+             "lmi_summary": "lmi_summary", "failures": "failures", "best": "best",
+             "uncertainty": "uncertainty", "warnings": "warnings"}
     files = []
     for k, fn in names.items():
-        _csv(dest / f"{fn}.csv", t[k])
+        _csv(dest / f"{fn}.csv", t[k], HEADERS.get(k, ()))
         files.append(dest / f"{fn}.csv")
     figs = {"error_effect": (fig_error_effect, "errors"),
             "conservatism": (fig_conservatism, "conservatism"),
@@ -450,9 +513,15 @@ def _write(dest: Path, t: dict) -> dict:
              *([*(f"- {w}" for w in warn), ""] if warn else []),
              "## v_y RMSE [m/s] against the vehicle file's errors", "", *_md(t["errors"]), "",
              "## Best estimator per region", "", *_md(t["best"]), "",
+             "## Reported uncertainty of v_y per truth plant", "",
+             "2-sigma coverage: share of scored samples with |v_y error| <= 2 vy_std_mps "
+             "(0.954 for a consistent Gaussian std); mean NEES: mean of (v_y error / "
+             f"vy_std_mps)^2 (1 when consistent); {NA}: the estimator reports no std.", "",
+             *_md(t["uncertainty"]), "",
              "## Interval observers: conservatism map", "", *_md(t["conservatism"]), "",
              "## LMI feasibility of the interval design", "", *_md(t["lmi_summary"]), "",
-             "## Failures", "", *_md(t["failures"]), ""]
+             "## Failures", "", *_md(t["failures"]), "",
+             "## Warnings raised by the tasks", "", *_md(t["warnings"]), ""]
     (dest / "summary.md").write_text("\n".join(lines) + "\n")
     files.append(dest / "summary.md")
     t["files"] = files

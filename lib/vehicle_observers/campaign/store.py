@@ -37,7 +37,7 @@ KINDS = ("results", "lmi")
 _BATCH = re.compile(r"^batch-(\d{6,})\.parquet$")
 #: version of the batch files' metadata (:func:`batch_meta`); a file of another version is
 #: not this campaign's (recomputed on resume, left out of the report)
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2   # 2: result rows with coverage_vy, nees_vy, warnings, warning_kinds
 #: Parquet key-value metadata key of a batch file's description
 META_KEY = b"vehicle_observers.batch"
 #: index column of each kind of batch

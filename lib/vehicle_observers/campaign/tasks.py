@@ -11,6 +11,19 @@ with ``ok = False`` and its error message; the other tasks go on.
 Rows hold no wall-clock time, so a task's row is the same wherever it ran (the engine's
 determinism tests compare them bit for bit).
 
+Warnings are not silenced: those raised while a task builds its log, runs its estimator and
+scores it are recorded in its row (:func:`recorded_warnings`: ``warnings``, their number, and
+``warning_kinds``, per category the count and the first message), every occurrence counted
+(filter "always", so the count does not depend on which tasks ran before in the process).
+The truth's simulation is shared by many tasks and done once per process, so its warnings
+cannot be given to one task the same way on both engines: they are ignored (a truth that
+fails is recorded as the error of every task that needs it).
+
+For estimators that report a standard deviation of ``v_y`` (``vy_std_mps``) the row also
+holds its 2-sigma coverage (``coverage_vy``) and mean NEES (``nees_vy``) over the scored
+samples (:func:`vehicle_observers.core.metrics.coverage_2sigma`, :func:`~vehicle_observers.
+core.metrics.mean_nees`); NaN for the others.
+
 A truth that cannot be simulated is a failure of every task that needs it, with the same row
 on both engines (:class:`TruthFailure` travels to the batches in place of the truth). With
 the spec's ``timeout_s`` a task that runs longer is stopped and recorded as failed
@@ -39,7 +52,8 @@ THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THRE
               "RAYON_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 #: metric columns of a result row (NaN where an estimator or a log has no such quantity)
 METRICS = ("rmse_vy", "max_vy", "rmse_beta", "max_beta", "rmse_r", "max_r", "rmse_Ff",
-           "rmse_Fr", "enclosure_vy", "width_vy", "enclosure_r", "width_r")
+           "rmse_Fr", "enclosure_vy", "width_vy", "enclosure_r", "width_r", "coverage_vy",
+           "nees_vy")
 #: longest error message kept [characters]
 MAX_MESSAGE = 300
 
@@ -62,7 +76,8 @@ def result_schema():
               ("truth_cf_min", pa.float64()), ("truth_cf_max", pa.float64()),
               ("truth_cr_min", pa.float64()), ("truth_cr_max", pa.float64()),
               ("in_box", pa.bool_()), ("guarantee", pa.bool_()),
-              ("ok", pa.bool_()), ("error_type", pa.string()), ("error", pa.string())]
+              ("ok", pa.bool_()), ("error_type", pa.string()), ("error", pa.string()),
+              ("warnings", pa.int64()), ("warning_kinds", pa.string())]
     return pa.schema(fields)
 
 
@@ -226,7 +241,8 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
            "samples": 0, **dict.fromkeys(METRICS, float("nan")),
            "truth_cf_min": float("nan"), "truth_cf_max": float("nan"),
            "truth_cr_min": float("nan"), "truth_cr_max": float("nan"),
-           "in_box": None, "guarantee": None, "ok": False, "error_type": "", "error": ""}
+           "in_box": None, "guarantee": None, "ok": False, "error_type": "", "error": "",
+           "warnings": 0, "warning_kinds": ""}
     row0 = dict(row)
     try:
         with deadline(d.get("timeout_s")):
@@ -246,14 +262,25 @@ def run_task(spec: S.Spec, i: int, batch_id: int, truths: dict | None = None,
 
 
 def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators, name, opts):
-    from vehicle_observers.estimation import registry, scoring
-
-    d = spec.doc
     key = S.truth_key(tk.plant, tk.car, tk.manoeuvre, tk.rate)
     tr = truths[key] if truths is not None and key in truths else \
         truth(tk.plant, tk.car, tk.manoeuvre, tk.rate)
     if isinstance(tr, TruthFailure):
         raise TruthFailed(tr)
+    seen: dict = {}
+    try:
+        with recorded_warnings(seen):
+            _estimate_and_score(spec, tk, v, errors, bias, lo, hi, row, tr, estimators, name,
+                                opts)
+    finally:
+        row["warnings"], row["warning_kinds"] = warnings_summary(seen)
+
+
+def _estimate_and_score(spec, tk, v, errors, bias, lo, hi, row, tr, estimators, name, opts):
+    from vehicle_observers.core.metrics import coverage_2sigma, mean_nees
+    from vehicle_observers.estimation import registry, scoring
+
+    d = spec.doc
     rng = np.random.default_rng(S.seed_sequence(spec.seed, tk.log_key))
     sens = d["sensors"]
     log = T.make_log(tr, tk.rate, sens["std"], tk.noise, bias, sens["distribution"], rng)
@@ -276,9 +303,42 @@ def _run_task_body(spec, tk, v, errors, bias, lo, hi, row, truths, estimators, n
                                  f"{log.t[k]:.3f} s")
     mask = log.t - log.t[0] > d["score"]["settle_s"]
     sc = scoring.score(est, log, mask)
+    std = est.columns.get("vy_std_mps")
+    if std is not None and log.vy is not None and "vy_mps" in est.columns:
+        sc["coverage_vy"] = coverage_2sigma(est.columns["vy_mps"], std, log.vy, mask)
+        sc["nees_vy"] = mean_nees(est.columns["vy_mps"], std, log.vy, mask)
     row.update({k: float(sc[k]) for k in METRICS if k in sc})
     row["samples"] = int(mask.sum())
     row["ok"] = True
+
+
+@contextlib.contextmanager
+def recorded_warnings(into: dict):
+    """Record every warning raised inside the block into ``into``: ``{category name: [count,
+    first message]}`` (filter "always": each occurrence counted, whatever the process saw
+    before; numpy's floating-point errors raised as warnings, underflow excepted); nothing is
+    printed."""
+    with warnings.catch_warnings(), np.errstate(divide="warn", over="warn", invalid="warn",
+                                                under="ignore"):
+        warnings.simplefilter("always")
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            text = str(message).splitlines()[0] if str(message) else ""
+            c = into.setdefault(category.__name__, [0, text[:MAX_MESSAGE]])
+            c[0] += 1
+
+        warnings.showwarning = show
+        yield into
+
+
+def warnings_summary(seen: dict) -> tuple[int, str]:
+    """``(total count, JSON {category: {"count", "first"}})`` of :func:`recorded_warnings`'
+    record (``(0, "")`` when nothing was raised): the ``warnings`` and ``warning_kinds``
+    columns of a row."""
+    if not seen:
+        return 0, ""
+    kinds = {k: {"count": int(c), "first": m} for k, (c, m) in sorted(seen.items())}
+    return int(sum(c for c, _ in seen.values())), json.dumps(kinds, sort_keys=True)
 
 
 _AVAILABLE: dict = {}
@@ -302,8 +362,8 @@ def run_batch(raw: dict, batch_id: int, start: int, stop: int, truths=None) -> d
     spec = spec_of(raw)
     tmap = None if truths is None else {t.key: t for t in truths}
     avail = estimators_of(spec.plugins, {spec.estimator_of(p[0])[0] for p in spec.pairs})
-    with warnings.catch_warnings(), np.errstate(all="ignore"):
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")    # the truths' (module docstring); a task records its own
         rows = [run_task(spec, i, batch_id, tmap, avail) for i in range(start, stop)]
     names = result_schema().names
     return {n: [r[n] for r in rows] for n in names}

@@ -308,14 +308,26 @@ def _check_vehicle(args, log, vehicle, spec=None) -> str | None:
     return None
 
 
-def _check_output(name, table: dict, accept: bool):
-    """An output with NaN/inf (or a diverged v_y / yaw rate) is an error, not a result."""
+def _check_output(spec, table: dict, accept: bool):
+    """An output with NaN/inf (or a diverged v_y / yaw rate) is an error, not a result. NaN
+    from a plug-in is the plug-in's error (:class:`PluginError`, exit 3, naming the file:line
+    of the code that computes its estimates, :func:`registry.output_source`); from a
+    built-in estimator, the input's (exit 2)."""
+    from vehicle_observers.core.errors import PluginError
+    from vehicle_observers.estimation.registry import output_source
+
+    name = spec.name
     for c, v in table.items():
         bad = ~np.isfinite(v)
         if bad.any():
             i = int(np.argmax(bad))
-            raise CLIError(f"observer {name!r} produced {int(bad.sum())} NaN/inf value(s) in "
-                           f"{c!r}, first at row {i}; nothing written")
+            what = (f"{name!r} produced {int(bad.sum())} NaN/inf value(s) in {c!r}, first "
+                    f"at row {i}")
+            if spec.plugin:
+                at = output_source(spec) or spec.source_file or f"module {spec.origin}"
+                raise PluginError(f"plug-in estimator {what}; its estimates are computed at "
+                                  f"{at}", name, at)
+            raise CLIError(f"observer {what}; nothing written")
     for c, lim in OUTPUT_BOUNDS.items():
         v = table.get(c)
         if v is not None and not accept and np.abs(v).max() > lim:
@@ -504,7 +516,7 @@ def cmd_estimate(args, out=None):
                                 progress=bar.observer, max_gap=args.max_gap, cache=True,
                                 **options)
             table = est.table()
-            _check_output(spec.name, table, args.accept_out_of_range)
+            _check_output(spec, table, args.accept_out_of_range)
             est.info["verdict_info"] = _verdict(est, log, vehicle)
             bar.stage(85, "writing")
             side = _Sidecar(out_path, spec, options, args)
@@ -980,6 +992,15 @@ def cmd_campaign(args, out=None):
         for r in t["best"]:
             print(f"  best at {r['parameter']} {r['error']:+g}: {r['best']} "
                   f"(median v_y RMSE {r['best_median_rmse_vy']:.4g} m/s)", file=out)
+        fmt = lambda v, f: v if isinstance(v, str) else format(v, f)  # noqa: E731
+        for r in t["uncertainty"]:
+            print(f"  {r['estimator']:22s} on {r['plant']}: median v_y RMSE "
+                  f"{fmt(r['median_rmse_vy'], '.4g')} m/s, 2-sigma coverage "
+                  f"{fmt(r['coverage_2sigma'], '.3f')}, mean NEES {fmt(r['mean_nees'], '.3g')}",
+                  file=out)
+        for r in t["warnings"]:
+            print(f"  {r['estimator']:22s} raised {r['count']} {r['category']}(s) in "
+                  f"{r['tasks']} task(s), first: {r['first_message']}", file=out)
         print(f"wrote {len(t['files'])} files to {Path(t['files'][0]).parent}", file=out)
         return 0
     if args.dir:

@@ -75,3 +75,23 @@ def enclosure_rate(lower, x, upper, tol: float = 0.0) -> float:
     """Share of samples with ``lower - tol <= x <= upper + tol``."""
     lower, x, upper = (np.asarray(a, dtype=float) for a in (lower, x, upper))
     return float(np.mean((lower - tol <= x) & (x <= upper + tol)))
+
+
+def coverage_2sigma(est, std, ref, mask=None) -> float:
+    """Share of the samples with ``|est - ref| <= 2 std``: the 2-sigma coverage of a reported
+    standard deviation ``std`` (same unit as ``est``), 0.954 for a consistent Gaussian one
+    (ValueError if ``mask`` selects nothing)."""
+    e = _errors(est, ref, mask, "coverage_2sigma")
+    s = np.asarray(std, dtype=float)
+    s = s[mask] if mask is not None else s
+    return float(np.mean(np.abs(e) <= 2.0 * s))
+
+
+def mean_nees(est, std, ref, mask=None, floor: float = 1e-12) -> float:
+    """Mean normalised estimation error squared of one state, ``mean(((est - ref) / std)^2)``
+    (Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2): 1 for a consistent ``std``, above 1 when
+    it is too small. ``std`` is floored at ``floor`` (same unit as ``est``)."""
+    e = _errors(est, ref, mask, "mean_nees")
+    s = np.asarray(std, dtype=float)
+    s = s[mask] if mask is not None else s
+    return float(np.mean((e / np.maximum(s, floor)) ** 2))

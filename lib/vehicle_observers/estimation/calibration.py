@@ -59,6 +59,7 @@ import math
 
 import numpy as np
 
+from vehicle_observers.core.metrics import coverage_2sigma, mean_nees
 from vehicle_observers.data.logs import DriveLog
 
 #: constant-sideslip floor of the uncertainty [rad] (0.1 deg: a wheel-alignment tolerance)
@@ -318,9 +319,10 @@ def coverage(err, std, mask=None) -> dict:
     if not len(e):
         return {"coverage_2sigma": float("nan"), "coverage_1sigma": float("nan"),
                 "nees": float("nan"), "n": 0}
-    return {"coverage_2sigma": float(np.mean(np.abs(e) <= 2 * s)),
+    zero = np.zeros(len(e))
+    return {"coverage_2sigma": coverage_2sigma(e, s, zero),
             "coverage_1sigma": float(np.mean(np.abs(e) <= s)),
-            "nees": float(np.mean((e / s) ** 2)), "n": int(len(e))}
+            "nees": mean_nees(e, s, zero), "n": int(len(e))}
 
 
 def binomial_band(n: int, p: float = GAUSS_2SIGMA, z: float = 3.29) -> tuple[float, float]:

@@ -253,6 +253,8 @@ def register_observer(name: str, build: Callable, description: str = "", *,
         return Trajectory.from_columns(log.t, cols, seconds=sec, design_seconds=design_sec,
                                        causal=True, estimator=name, info=info)
 
+    run.build = build          # where its numbers come from (output_source)
+
     spec = EstimatorSpec(name, description or name, run, columns=tuple(columns),
                          origin=getattr(build, "__module__", ""), options=dict(options),
                          columns_declared=declared, **kw)
@@ -420,6 +422,22 @@ def plugin_error(spec: EstimatorSpec, exc: BaseException) -> PluginError | None:
     msg = str(exc).splitlines()[0] if str(exc) else ""
     return PluginError(f"plug-in estimator {spec.name!r} raised {type(exc).__name__} at {at}"
                        + (f": {msg}" if msg else ""), spec.name, where)
+
+
+def output_source(spec: EstimatorSpec) -> str:
+    """``"path/to/file.py:LINE (in NAME)"`` of the plug-in code that computes the estimates
+    of ``spec``: the ``step`` of an observer registered by :func:`register_observer` (else its
+    ``build``), or the function registered by :func:`estimator`; ``""`` when it has no
+    source file (a built-in or compiled callable)."""
+    import inspect
+
+    fn = getattr(spec.run, "build", spec.run)
+    fn = getattr(fn, "step", fn) if inspect.isclass(fn) else fn
+    fn = inspect.unwrap(fn)
+    code = getattr(fn, "__code__", None)
+    if code is None:
+        return ""
+    return f"{code.co_filename}:{code.co_firstlineno} (in {getattr(fn, '__qualname__', fn)})"
 
 
 def source_sha256(module: str) -> str | None:

@@ -238,17 +238,22 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
 
     ol = {r["dataset"]: r["rmse_vy"] for r in table if r["observer"] == "open-loop-linear"}
     ds, obs = _groups([r for r in table if r["dataset"] in ol])
-    fig, axes = plt.subplots(1, len(ds), figsize=(2.6 * len(ds) + 2.2, 0.28 * len(obs) + 1.6),
+    ncol = min(len(ds), 5)
+    nrow = -(-len(ds) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(2.6 * ncol + 2.2,
+                                                  nrow * (0.28 * len(obs) + 1.2) + 0.4),
                              sharey=True, squeeze=False)
+    for a in axes.flat[len(ds):]:
+        a.set_visible(False)
     y = np.arange(len(obs))
-    for a, d in zip(axes[0], ds):
+    for a, d in zip(axes.flat, ds):
         rr = {r["observer"]: r for r in table if r["dataset"] == d}
         for j, o in enumerate(obs):
             if o in rr:
                 a.barh(j, rr[o]["rmse_vy"] / ol[d], color=color(o, j), height=0.75,
                        hatch=None if rr[o]["causal"] else "//", edgecolor="white", lw=0)
         a.axvline(1.0, color="0.6", lw=0.6)
-        if d.startswith("plant_"):
+        if not d.startswith("revs"):
             a.axvline(open_loop, color=TRUTH, ls=":", lw=1.2, label=f"{open_loop:g} x open loop")
             if "linear-kf-ml" in rr:
                 a.axvline(linear_kf * rr["linear-kf-ml"]["rmse_vy"] / ol[d], color=TRUTH, ls="--",
@@ -258,12 +263,17 @@ def fig_leaderboard(table: list[dict], open_loop: float = 0.8, linear_kf: float 
         a.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if v in (0.5, 2, 3) else ""))
         a.set_title(d.replace("plant_", "plant: "), fontsize=9)
         a.set_xlabel(r"$v_y$ RMSE / open loop's [-]")
-    axes[0][0].set_yticks(y)
-    axes[0][0].set_yticklabels(obs, fontsize=8)
+    for row in axes:
+        row[0].set_yticks(y)
+        row[0].set_yticklabels(obs, fontsize=8)
     axes[0][0].invert_yaxis()
-    h = next((a for a in axes[0] if a.get_legend_handles_labels()[0]), None)
-    if h is not None:
-        h.legend(fontsize=7, loc="lower right")
-    fig.suptitle("Leaderboard: v_y RMSE relative to the open-loop linear bicycle "
-                 "(hatched: not causal; dotted / dashed: targets)", fontsize=10)
+    from matplotlib.patches import Patch
+
+    # the key in the first panel with target lines (no suptitle: tight_layout, which the
+    # report's savefig applies, lets a suptitle overlap the first row of a tall figure)
+    h = next((a for a in axes.flat if a.get_legend_handles_labels()[0]), axes.flat[0])
+    hs, ls = h.get_legend_handles_labels()
+    hs.append(Patch(facecolor="0.85", hatch="//", edgecolor="white", label="not causal"))
+    h.legend(handles=hs, fontsize=7, loc="lower right",
+             title="v_y RMSE / open loop's", title_fontsize=7)
     return fig
