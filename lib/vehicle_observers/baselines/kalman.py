@@ -78,6 +78,7 @@ from vehicle_observers.models.lateral import (
     LateralParams,
     M,
 )
+from vehicle_observers.models.mounting import derotate_ay, log_misalignment
 from vehicle_observers.models.road import bank_column, body_roll_ay, lateral_gravity
 from vehicle_observers.models.tires import magic_formula_slope
 from vehicle_observers.models.vehicle import Q_B, Q_R, Q_VY, R_AY, R_R, KalmanTuning
@@ -490,6 +491,7 @@ class _Inputs:
     use_ay: bool
     x0: np.ndarray
     gy: np.ndarray | None = None     # bank term -g sin(phi) [m/s^2] (None: flat road)
+    psi: np.ndarray | None = None    # yaw misalignment of the unit [rad] (None: not applied)
 
     def terms(self, params: LateralParams) -> tuple:
         """The model-term arguments of :func:`_ekf_terms`: ``(gy, ks)``."""
@@ -497,8 +499,12 @@ class _Inputs:
         return gy, float(params.stiffness_speed)
 
 
-def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float | None = 0.1):
-    """Arrays for the kernels. Steering spikes (single-sample jumps > ``despike_steering``
+def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float | None = 0.1,
+            misalignment: bool = False):
+    """Arrays for the kernels. ``misalignment=True`` with an a_y channel and an ``ax_mps2``
+    column: a_y de-rotated by the causal estimate of the unit's yaw misalignment
+    (:mod:`vehicle_observers.models.mounting`, kept in ``psi``; measured channels only).
+    Steering spikes (single-sample jumps > ``despike_steering``
     rad from the 3-sample median, e.g. 0.48 rad at t = 671.67 s in the Revs log) are removed:
     a physical steering wheel cannot jump 0.1 rad road-wheel for one sample and come back
     (the 3-sample median reads the next sample: this cleaning is an offline step before the
@@ -526,6 +532,9 @@ def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float |
     if despike_steering is not None:
         delta, _ = despike(delta, despike_steering)
     ay = np.ascontiguousarray(log.ay if use else np.zeros_like(log.t), dtype=float)
+    psi = log_misalignment(log) if (use and misalignment) else None
+    if psi is not None:                    # the unit's yaw misalignment, a_x,s into a_y
+        ay = np.ascontiguousarray(derotate_ay(ay, log.extra["ax_mps2"], psi))
     tilt = body_roll_ay(log) if use else None
     if tilt is not None:                   # a roll column: the body's tilt of the sensor
         ay = ay - tilt
@@ -537,7 +546,7 @@ def prepare(log: DriveLog, use_ay: bool | None = None, despike_steering: float |
                                     f"non-finite value at row {k}; the bank term needs finite "
                                     "angles")
     return _Inputs(np.ascontiguousarray(log.t, dtype=float), np.ascontiguousarray(log.vx, float),
-                   delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0, gy)
+                   delta, np.ascontiguousarray(log.yaw_rate, float), ay, use, x0, gy, psi)
 
 
 def _x0(yaw_rate0) -> np.ndarray:
@@ -740,27 +749,34 @@ class LateralEKF(_KalmanObserver):
 
 
 def ekf(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-        use_ay: bool | None = None, store: bool = False) -> KalmanRun:
+        use_ay: bool | None = None, store: bool = False,
+        misalignment: bool = False) -> KalmanRun:
     """Numba EKF on ``log`` (see module docstring): :class:`LateralEKF` on the despiked
-    inputs of :func:`prepare`. ``store=True`` keeps the priors and Jacobians
+    inputs of :func:`prepare` (``misalignment``: a_y de-rotated by the unit's estimated yaw
+    misalignment, then in ``info['psi_m']``). ``store=True`` keeps the priors and Jacobians
     (``info['Xp', 'Pp', 'Fs']``, ``P`` full) for the smoother."""
     tuning = tuning or KalmanTuning()
-    inp = prepare(log, use_ay)
-    return LateralEKF(KalmanDesign(params, tuning, inp.use_ay))._run_inputs(inp, store)
+    inp = prepare(log, use_ay, misalignment=misalignment)
+    out = LateralEKF(KalmanDesign(params, tuning, inp.use_ay))._run_inputs(inp, store)
+    if inp.psi is not None:
+        out.info["psi_m"] = inp.psi
+    return out
 
 
 def rts(log: DriveLog, params: LateralParams, tuning: KalmanTuning | None = None,
-        use_ay: bool | None = None) -> KalmanRun:
+        use_ay: bool | None = None, misalignment: bool = False) -> KalmanRun:
     """Extended RTS smoother (offline, non-causal: ``causal=False``): EKF forward pass + RTS
-    backward pass (Rauch, Tung & Striebel 1965)."""
+    backward pass (Rauch, Tung & Striebel 1965); ``misalignment`` as in :func:`ekf`."""
     t0 = time.perf_counter()
-    f = ekf(log, params, tuning, use_ay, store=True)
+    f = ekf(log, params, tuning, use_ay, store=True, misalignment=misalignment)
     Xs, Ps = _rts(f.X, f.P, f.info["Xp"], f.info["Pp"], f.info["Fs"])
     sec = time.perf_counter() - t0
-    inp = prepare(log, use_ay)
+    inp = prepare(log, use_ay, misalignment=misalignment)
     Ff, Fr = _forces(Xs, inp, params)
-    return kalman_run("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False,
-                {"use_ay": inp.use_ay, "tuning": f.info["tuning"]})
+    info = {"use_ay": inp.use_ay, "tuning": f.info["tuning"]}
+    if inp.psi is not None:
+        info["psi_m"] = inp.psi
+    return kalman_run("RTS", inp.t, Xs, Ps, Ff, Fr, float("nan"), sec, False, info)
 
 
 def nll(log_or_inputs, params: LateralParams, tuning: KalmanTuning) -> float:

@@ -18,11 +18,12 @@ import numpy as np
 
 from vehicle_observers.baselines import kalman
 from vehicle_observers.baselines.ukf import ukf as ukf_numba
-from vehicle_observers.core.errors import LogFormatError
+from vehicle_observers.core.errors import LogFormatError, ObserverArgumentError
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import EstimatorSpec, register
+from vehicle_observers.models.mounting import AX_COLUMN, sensor_frame
 from vehicle_observers.models.road import BANK_COLUMNS, lateral_gravity
 from vehicle_observers.models.vehicle import KalmanTuning, Vehicle
 
@@ -146,11 +147,13 @@ def _cache_put(key, tun: KalmanTuning):
     _cache.save_json(cache_dir() / f"tuning-{key}.json", d, "kalman-tuning")
 
 
-def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:
+def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning, misalignment: bool = False,
+                frame: str = "body") -> tuple[dict, float]:
     """The numba EKF (:func:`kalman._ekf`, same call as :func:`kalman.ekf`) returning only
     the output columns: no (N, 3, 3) covariance array, so a 10^7-row log needs the input
-    and output columns only. Returns (columns, seconds of the filter loop)."""
-    inp = kalman.prepare(log)
+    and output columns only. ``misalignment``, ``frame``: :func:`_frame`. Returns (columns,
+    seconds of the filter loop)."""
+    inp = kalman.prepare(log, misalignment=misalignment)
     t0 = time.perf_counter()
     Xf, _, Pfd, *_ = kalman._ekf_terms(inp.t, inp.vx, inp.delta, inp.yr, inp.ay, inp.use_ay,
                                        vehicle.params.as_array(), tuning.theta(), inp.x0,
@@ -165,7 +168,28 @@ def ekf_columns(log: DriveLog, vehicle: Vehicle, tuning) -> tuple[dict, float]:
             "vy_std_mps": std}
     if inp.use_ay:
         cols["ay_bias_mps2"] = Xf[:, 2]
-    return cols, sec
+    return _frame(cols, log, inp.psi, frame), sec
+
+
+#: values of the ``frame`` option of the EKF and the RTS smoother
+FRAMES = ("body", "sensor")
+
+
+def _frame(cols: dict, log: DriveLog, psi, frame: str) -> dict:
+    """``frame="sensor"``: ``vy_mps`` and ``beta_rad`` in the axes of the inertial unit
+    (:func:`vehicle_observers.models.mounting.sensor_frame`, ``v_y - v_x psi_m``), the frame
+    an INS reference reports in; ``"body"``: the car's axes. ``psi`` (N,) [rad] the
+    estimated yaw misalignment (``None``: not applied, both frames coincide); the estimated
+    ``psi_m`` is added as ``psi_mount_rad``."""
+    if frame not in FRAMES:
+        raise ObserverArgumentError(f"frame={frame!r}: expected one of {', '.join(FRAMES)}")
+    if psi is None:
+        return cols
+    cols["psi_mount_rad"] = np.asarray(psi, dtype=float)
+    if frame == "sensor":
+        cols["vy_mps"] = sensor_frame(cols["vy_mps"], log.vx, psi)
+        cols["beta_rad"] = np.arctan2(cols["vy_mps"], log.vx)
+    return cols
 
 
 def _kalman_columns(res: kalman.KalmanRun, log: DriveLog) -> dict:
@@ -179,7 +203,8 @@ def _kalman_columns(res: kalman.KalmanRun, log: DriveLog) -> dict:
 
 def _kalman_runner(fn, name, causal=True):
     def run(log: DriveLog, vehicle: Vehicle, tuning=None, window_s=TUNE_WINDOW_S,
-            progress=None, max_gap=segments.MAX_GAP_S, cache=False, **_):
+            progress=None, max_gap=segments.MAX_GAP_S, cache=False,
+            misalignment=MISALIGNMENT_DEFAULT, frame=FRAME_DEFAULT, **_):
         tprog = None if progress is None else (lambda i, n: progress(i, n, "tuning"))
         tun, tsec = kalman_tuning(log, vehicle, tuning, window_s, tprog, max_gap=max_gap,
                                   cache=cache)
@@ -188,12 +213,15 @@ def _kalman_runner(fn, name, causal=True):
 
         def one(sub, a):
             if fn is kalman.ekf:
-                return ekf_columns(sub, vehicle, tun)
+                return ekf_columns(sub, vehicle, tun, misalignment, frame)
             kw = {}
             if progress is not None and slow:
                 kw["progress"] = lambda i, n: progress(a + i, N)
+            if fn is kalman.rts:
+                kw["misalignment"] = misalignment
             res = fn(sub, vehicle.params, tun, **kw)
-            return _kalman_columns(res, sub), res.seconds
+            return _frame(_kalman_columns(res, sub), sub, res.info.get("psi_m"), frame), \
+                res.seconds
 
         one.columns = ("vy_mps", "yaw_rate_radps", "beta_rad", "Ff_N", "Fr_N", "vy_std_mps")
         cols, sec, n = segments.run_stretches(one, log, vehicle,
@@ -206,12 +234,20 @@ def _kalman_runner(fn, name, causal=True):
     return run
 
 
+#: default of the ``misalignment`` option of the EKF and the RTS smoother (a_y de-rotated by
+#: the unit's estimated yaw misalignment when the log has ``ax_mps2``)
+MISALIGNMENT_DEFAULT = False
+#: default of their ``frame`` option (:func:`_frame`)
+FRAME_DEFAULT = "body"
+#: the options of the EKF and the RTS smoother
+_MOUNT_OPTIONS = {"misalignment": MISALIGNMENT_DEFAULT, "frame": FRAME_DEFAULT}
+
 _KF_DOC = ("nonlinear yaw-drift model (Yacine 2015 eq. (1), Pacejka tyres; road bank from a "
            "bank/roll column if present), measures yaw rate and a_y if present; noise by ML "
            "on the first 120 s of measured channels unless the vehicle file has [kalman]")
 register(EstimatorSpec("ekf", "EKF, numba (" + _KF_DOC + ")", _kalman_runner(kalman.ekf, "ekf"),
-                      optional_columns=("ay_mps2", *BANK_COLUMNS), paper="baseline",
-                      origin=__name__))
+                      optional_columns=("ay_mps2", *BANK_COLUMNS, AX_COLUMN), paper="baseline",
+                      origin=__name__, options=dict(_MOUNT_OPTIONS)))
 register(EstimatorSpec("ekf-filterpy", "the same EKF with filterpy (slow reference)",
                       _kalman_runner(kalman.ekf_filterpy, "ekf-filterpy"),
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
@@ -224,5 +260,5 @@ register(EstimatorSpec("ukf-filterpy", "the same UKF with filterpy (slow referen
                       optional_columns=("ay_mps2",), paper="baseline", origin=__name__))
 register(EstimatorSpec("rts", "extended RTS smoother (OFFLINE, non-causal reference) on the EKF",
                       _kalman_runner(kalman.rts, "rts", causal=False),
-                      optional_columns=("ay_mps2", *BANK_COLUMNS), causal=False, paper="baseline",
-                       origin=__name__))
+                      optional_columns=("ay_mps2", *BANK_COLUMNS, AX_COLUMN), causal=False,
+                      paper="baseline", origin=__name__, options=dict(_MOUNT_OPTIONS)))
