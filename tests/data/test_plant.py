@@ -102,3 +102,19 @@ def test_bad_manoeuvre_rejected():
     slow = plant.Manoeuvre("slow", m.t, m.delta_ref, np.full_like(m.t, 0.5))
     with pytest.raises(ValueError, match="v_x > 1 m/s"):
         plant.simulate(slow)
+
+
+def test_a_diverging_plant_is_one_error_without_package_warnings():
+    """Car 3 on the Satory lap leaves the multi-body model's valid range (a wheel speed
+    reaches 0 in the package's slip ratio, t = 53.22 s): one FloatingPointError naming the
+    time, and none of the package's scalar RuntimeWarnings on the way (which would otherwise
+    reach a notebook's stderr before the error). Catches a divergence that leaks NaN into a
+    log or floods stderr."""
+    import warnings
+
+    from vehicle_observers.data import plant
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(FloatingPointError, match=r"diverged at t = 53\.22 s \(satory\)"):
+            plant.plant_log("satory", seed=0, quick=False, vehicle_id=3)

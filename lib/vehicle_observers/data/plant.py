@@ -211,17 +211,21 @@ def simulate(man: Manoeuvre, vehicle_id: int = 2, seed: int = 0, noise_scale: fl
     dv = np.gradient(man.v_ref, man.t)
     N = len(man.t)
     rec = np.empty((N, 8))
-    for k in range(N):
-        u = [(man.delta_ref[k] - x[2]) / TAU_STEER, dv[k] + K_SPEED * (man.v_ref[k] - x[3])]
-        fx = np.asarray(f(list(x), u, p))
-        ay_s = fx[10] + x[5] * x[3]
-        ay_cg = (p.m_s * ay_s + p.m_uf * (fx[15] + x[5] * x[3])
-                 + p.m_ur * (fx[20] + x[5] * x[3])) / p.m
-        rec[k] = (x[3], x[2], x[5], x[10], ay_s, ay_cg, fx[5], x[6])
-        for _ in range(sub):
-            x, _k1 = _rk4(f, x, u, p, h)
-        if not np.all(np.isfinite(x)):
-            raise FloatingPointError(f"plant diverged at t = {man.t[k]:.2f} s ({man.name})")
+    # A diverging state (e.g. a wheel speed reaching 0 in the package's slip ratio) is caught
+    # below as one FloatingPointError naming the time; the package's own scalar warnings on
+    # the way there would only repeat it on stderr.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for k in range(N):
+            u = [(man.delta_ref[k] - x[2]) / TAU_STEER, dv[k] + K_SPEED * (man.v_ref[k] - x[3])]
+            fx = np.asarray(f(list(x), u, p))
+            ay_s = fx[10] + x[5] * x[3]
+            ay_cg = (p.m_s * ay_s + p.m_uf * (fx[15] + x[5] * x[3])
+                     + p.m_ur * (fx[20] + x[5] * x[3])) / p.m
+            rec[k] = (x[3], x[2], x[5], x[10], ay_s, ay_cg, fx[5], x[6])
+            for _ in range(sub):
+                x, _k1 = _rk4(f, x, u, p, h)
+            if not (np.all(np.isfinite(x)) and np.all(np.isfinite(rec[k]))):
+                raise FloatingPointError(f"plant diverged at t = {man.t[k]:.2f} s ({man.name})")
     vx, dl, r, vy, ay_s, ay_cg, rdot, roll = rec.T
     L = p.a + p.b
     # m a_y = Ff + Fr ; Iz r' = a Ff - b Fr
