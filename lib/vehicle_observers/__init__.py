@@ -26,6 +26,12 @@ from vehicle_observers.core.errors import (
     LogFormatError,
     PremiseOutOfBounds,
 )
+from vehicle_observers.core.source import configure_jit_cache
+
+# numba's compiled kernels are cached in a folder named after the SHA-256 of the package
+# source (vehicle_observers.core.source): a kernel calling another module's kernel is never
+# run from a cache compiled against that module's old code
+configure_jit_cache()
 
 __all__ = ["CertificationError", "InfeasibleDesign", "LogFormatError", "PremiseOutOfBounds"]
 __version__ = "0.1.0"

@@ -7,7 +7,9 @@ campaign resumed with different code is refused with one line naming what change
 (:func:`changes`), or, with ``recompute``, the batches of the estimators it affects are run
 again (:func:`affected_estimators`). The hash covers the module that registered each
 estimator (for a plug-in: its file; for a built-in one: its ``estimation`` module) and each
-plug-in file loaded; a change deeper in the library is covered by the package version only.
+plug-in file loaded; ``library_sha256`` covers every module of the installed packages
+(:func:`vehicle_observers.core.source.package_sha256`), so a change deeper in the library (a
+filter kernel, a tyre model) marks every estimator's results as made by other code.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ def code_provenance(estimators: dict, options: dict | None = None, plugins=()) -
     import numpy as np
 
     import vehicle_observers
+    from vehicle_observers.core.source import package_sha256
     from vehicle_observers.estimation import registry
 
     est = {}
@@ -41,6 +44,7 @@ def code_provenance(estimators: dict, options: dict | None = None, plugins=()) -
             registry.source_sha256(mod)
     opts = {k: dict(v) for k, v in (options or {}).items() if v}
     return {"package": "vehicle_observers", "version": vehicle_observers.__version__,
+            "library_sha256": package_sha256(),
             "python": platform.python_version(), "numpy": np.__version__,
             "estimators": est, "plugins": plug,
             "options": json.loads(json.dumps(opts, sort_keys=True, default=repr))}
@@ -51,6 +55,9 @@ def changes(old: dict, new: dict) -> list[str]:
     out = []
     if old.get("version") != new.get("version"):
         out.append(f"package version {old.get('version')} -> {new.get('version')}")
+    if old.get("library_sha256") != new.get("library_sha256"):
+        out.append(f"library source {str(old.get('library_sha256'))[:12]} -> "
+                   f"{str(new.get('library_sha256'))[:12]}")
     oe, ne = old.get("estimators", {}), new.get("estimators", {})
     for n in sorted(set(oe) | set(ne)):
         a, b = oe.get(n), ne.get(n)
@@ -70,8 +77,10 @@ def changes(old: dict, new: dict) -> list[str]:
 
 def affected_estimators(old: dict, new: dict) -> set[str] | None:
     """Estimators whose results ``changes`` invalidates; ``None``: all of them (the package
-    version, a plug-in file or the options changed)."""
-    if (old.get("version") != new.get("version") or old.get("plugins") != new.get("plugins")
+    version, the library source, a plug-in file or the options changed)."""
+    if (old.get("version") != new.get("version")
+            or old.get("library_sha256") != new.get("library_sha256")
+            or old.get("plugins") != new.get("plugins")
             or old.get("options", {}) != new.get("options", {})):
         return None
     oe, ne = old.get("estimators", {}), new.get("estimators", {})

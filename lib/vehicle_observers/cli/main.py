@@ -746,10 +746,12 @@ def _identify_window(args, log):
 def _identify_cached(log, geometry, channels, nonlinear):
     """:func:`identify_stiffness` through an on-disk cache (like the Kalman tuning's, in
     :func:`vehicle_observers.data.logs.cache_dir`): key = the window's measured channels,
-    the geometry and options, and the source of the identification and model modules."""
+    the geometry and options, and the source of the package
+    (:func:`vehicle_observers.core.source.package_sha256`)."""
     import hashlib
 
     from vehicle_observers.core import cache as _cache
+    from vehicle_observers.core.source import package_sha256
     from vehicle_observers.data import identification as idf
     from vehicle_observers.data.logs import cache_dir
     from vehicle_observers.models import lateral, tires
@@ -760,6 +762,7 @@ def _identify_cached(log, geometry, channels, nonlinear):
     h.update(repr((tuple(float(g) for g in geometry), tuple(channels), nonlinear)).encode())
     for m in (idf, lateral, tires):
         h.update(Path(m.__file__).read_bytes())
+    h.update(package_sha256().encode())     # any module the identification reaches
     f = cache_dir() / f"identify-{h.hexdigest()}.npz"
     fit = _cache.load(f, "identify", _check_fit)
     if fit is None:

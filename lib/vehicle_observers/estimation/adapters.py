@@ -33,6 +33,7 @@ import numpy as np
 
 from vehicle_observers.core.errors import LogFormatError
 from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.core.source import package_sha256
 from vehicle_observers.estimation import (
     kalman_runs,  # noqa: F401  (the Kalman family first)
     segments,
@@ -70,6 +71,7 @@ def _design_key(kind: str, vehicle, dt, *modules) -> str:
             h.update(pkg.encode())
     for m in (__file__, *modules):
         h.update(Path(m).read_bytes())
+    h.update(package_sha256().encode())     # any module the design reaches
     return h.hexdigest()
 
 

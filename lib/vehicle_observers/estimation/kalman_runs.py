@@ -20,6 +20,7 @@ from vehicle_observers.baselines import kalman
 from vehicle_observers.baselines.ukf import ukf as ukf_numba
 from vehicle_observers.core.errors import LogFormatError, ObserverArgumentError
 from vehicle_observers.core.protocol import Trajectory
+from vehicle_observers.core.source import package_sha256
 from vehicle_observers.data.logs import DriveLog
 from vehicle_observers.estimation import calibration, segments
 from vehicle_observers.estimation.registry import EstimatorSpec, register
@@ -93,8 +94,9 @@ def cache_dir() -> Path:
 
 def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
     """SHA-256 of everything the ML tuning reads: the window's measured channels, the vehicle
-    constants, the options and the source of :mod:`baselines.kalman` (a changed tuning
-    never reuses an old entry)."""
+    constants, the options and the source of the package
+    (:func:`vehicle_observers.core.source.package_sha256`: a changed tuning never reuses an
+    old entry)."""
     h = hashlib.sha256()      # time enters through its differences only (shift-invariant)
     for a in (win.t - win.t[0], win.vx, win.delta, win.yaw_rate, win.ay,
               lateral_gravity(win)):
@@ -102,6 +104,7 @@ def _tuning_key(win: DriveLog, vehicle: Vehicle, maxiter, rate_hz) -> str:
     h.update(repr((vehicle.params.as_array().tolist(), vehicle.params.stiffness_speed, maxiter,
                    rate_hz)).encode())
     h.update(Path(kalman.__file__).read_bytes())
+    h.update(package_sha256().encode())     # any module the tuning reaches
     return h.hexdigest()
 
 

@@ -84,7 +84,8 @@ def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=None,
     (the ``linear-kf-ml`` tuning). ``cache=True`` (the command line) also keeps it on disk
     as JSON in :func:`vehicle_observers.estimation.kalman_runs.cache_dir`, keyed by the
     measured channels, the vehicle constants and box, the options and the source of the
-    filter and the selection (an edited rule never reuses an old entry). Returns (selection,
+    whole package (:func:`vehicle_observers.core.source.package_sha256`: an edited rule or
+    filter never reuses an old entry). Returns (selection,
     seconds spent now)."""
     cands = () if linear else tuple(AD.TERM_NAMES if candidates is None else candidates)
     key = _key(log, vehicle, f"{linear}{cands}{maxiter}")
@@ -102,13 +103,11 @@ def selection_for(log: DriveLog, vehicle, linear: bool = False, candidates=None,
 
 
 def _selection_file(key: str):
-    from pathlib import Path
-
+    from vehicle_observers.core.source import package_sha256
     from vehicle_observers.estimation.kalman_runs import cache_dir
 
     h = hashlib.sha256(key.encode())
-    for m in ("vehicle_observers.baselines.adaptive", "vehicle_observers.estimation.selection"):
-        h.update(Path(importlib.import_module(m).__file__).read_bytes())
+    h.update(package_sha256().encode())     # the whole library: the selection reaches far
     return cache_dir() / f"selection-{h.hexdigest()}.json"
 
 
