@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vehicle_observers.core.errors import LogFormatError
+from vehicle_observers.core.errors import InfeasibleDesign, LogFormatError
 from vehicle_observers.core.protocol import Trajectory
 from vehicle_observers.core.source import package_sha256
 from vehicle_observers.estimation import (
@@ -196,6 +196,25 @@ ACCEL_MAX = 12.0  # m/s^2
 _IV_CACHE: dict = {}
 
 
+def _design_or_refusal(kind, key_args, build, cache):
+    """:func:`_disk_design`, or the :class:`InfeasibleDesign` it raised (kept in the process
+    cache like a design: a car the LMIs refuse is refused again without re-solving, e.g.
+    ``fusion-interval`` after ``interval-coordinates`` on the same log)."""
+    try:
+        return _disk_design(kind, key_args, build, cache)
+    except InfeasibleDesign as exc:
+        return exc
+
+
+def _cached(entry):
+    """A process-cache entry: the (design, seconds) pair, or a new :class:`InfeasibleDesign`
+    with the stored refusal's message (a fresh exception, no growing traceback)."""
+    if isinstance(entry, InfeasibleDesign):
+        raise type(entry)(str(entry), lmi=entry.lmi, violation=entry.violation,
+                          status=entry.status)
+    return entry
+
+
 def _layer_files() -> tuple:
     """Source files of the LMI synthesis layer that poses and certifies Theorem 2
     (:func:`vehicle_observers.observers.interval.theorem2_synthesis`): part of the cache key."""
@@ -213,7 +232,7 @@ def interval_design(vehicle, dt: float, cache: bool = False):
 
     key = (vehicle.params, tuple(sorted(vehicle.uncertainty.items())), round(dt, 9))
     if key in _IV_CACHE:
-        return _IV_CACHE[key]
+        return _cached(_IV_CACHE[key])
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-ifqir2017'")
     p = vehicle.params
@@ -226,10 +245,10 @@ def interval_design(vehicle, dt: float, cache: bool = False):
         return _iv.design_theorem2(model, eps_decay=1.0, epsilon_shift=1.0 / dt,
                                    accel_max=ACCEL_MAX, p_min=1.0)
 
-    des, sec = _disk_design("ifqir2017", (vehicle, dt, _iv.__file__, _ub.__file__, _lmi.__file__,
-                                          *_layer_files()), build, cache)
-    _IV_CACHE[key] = (des, sec)
-    return des, sec
+    _IV_CACHE[key] = _design_or_refusal(
+        "ifqir2017", (vehicle, dt, _iv.__file__, _ub.__file__, _lmi.__file__, *_layer_files()),
+        build, cache)
+    return _cached(_IV_CACHE[key])
 
 
 def dt_runs(t, rtol=DT_RTOL):
@@ -337,7 +356,7 @@ def coordinate_interval_design(vehicle, dt: float, cache: bool = False):
     key = ("coordinates", vehicle.params, tuple(sorted(vehicle.uncertainty.items())),
            round(dt, 9))
     if key in _IV_CACHE:
-        return _IV_CACHE[key]
+        return _cached(_IV_CACHE[key])
     rel, vmin, vmax = vehicle.need_uncertainty("stiffness_rel", "vx_min", "vx_max",
                                                purpose="observer 'interval-coordinates'")
     p = vehicle.params
@@ -348,10 +367,10 @@ def coordinate_interval_design(vehicle, dt: float, cache: bool = False):
         bands = _ub.SpeedBands(tuple(np.geomspace(vmin, vmax, 4)))
         return _ic.design(veh, bands, dt, accel_max=ACCEL_MAX)
 
-    _IV_CACHE[key] = _disk_design("coordinates", (vehicle, dt, _ic.__file__, _iv.__file__,
-                                                  _ub.__file__, _lmi.__file__, *_layer_files()),
-                                  build, cache)
-    return _IV_CACHE[key]
+    _IV_CACHE[key] = _design_or_refusal("coordinates",
+                                        (vehicle, dt, _ic.__file__, _iv.__file__, _ub.__file__,
+                                         _lmi.__file__, *_layer_files()), build, cache)
+    return _cached(_IV_CACHE[key])
 
 
 def _run_interval_coordinates(log, vehicle, max_gap=segments.MAX_GAP_S, progress=None,
