@@ -26,6 +26,33 @@ def test_serial_equals_local_cluster_of_two_workers(tiny_serial, tmp_path):
     assert same_bits(read_lmi(tmp_path / "dask"), ref_lmi) == []
 
 
+def test_embedded_cluster_is_silent_when_the_dashboard_port_is_taken():
+    """Catches the scheduler's HTTP server on the default port 8787: when another cluster (or
+    any program) holds it, distributed writes a UserWarning to stderr, which shows in a
+    notebook's output as a red warning."""
+    import socket
+    import warnings
+
+    from vehicle_observers.campaign.engine import local_cluster
+
+    with socket.socket() as held:
+        held.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            held.bind(("0.0.0.0", 8787))
+        except OSError:
+            pass                          # already held by another process: the same case
+        held.listen()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cluster = local_cluster(1)
+            try:
+                port = cluster.scheduler.http_server.port
+            finally:
+                cluster.close()
+    assert port != 8787
+    assert not [w for w in caught if "already in use" in str(w.message)]
+
+
 def test_failing_tasks_are_recorded_not_fatal(tiny_serial):
     spec, out, res, _ = tiny_serial
     assert res.num_rows == spec.n_tasks

@@ -298,6 +298,9 @@ def local_cluster(workers: int | None = None):
     with dask.config.set(WORKER_CONFIG):
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                             host="127.0.0.1", dashboard_address=None,
+                            # the scheduler's HTTP routes on a free port of 127.0.0.1: the
+                            # default 8787 warns on stderr when another cluster holds it
+                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                             silence_logs=logging.ERROR, env=dict(tasks.THREAD_ENV))
 
 

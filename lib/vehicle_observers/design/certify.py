@@ -129,8 +129,6 @@ def _hinf_continuous(A, B, C, D, rtol=1e-8):
 
     while has_axis_eig(hi):
         lo, hi = hi, 2.0 * hi
-    if lo == 0.0:
-        lo = 0.0
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
         if has_axis_eig(mid):
