@@ -112,7 +112,9 @@ class Metzler:
     ``margin``: the solver must reach off-diagonal entries of ``P A_i - K_j C_i`` >= margin
     (so its round-off cannot fail the certificate, which checks >= 0); ``diag_shift`` s:
     also ``diag(P A_i - K_j C_i + s P) >= 0`` (diagonal of ``A - L C`` >= -s, the explicit
-    Euler step bound ``h s <= 1`` of a sampled interval observer)."""
+    Euler step bound ``h s <= 1`` of a sampled interval observer). On a discrete-time
+    system this is still the continuous-time cooperativity (the diagonal is free): the
+    positivity of ``e_{k+1} = (A - L C) e_k`` is :class:`Nonnegative`."""
 
     margin: float = 0.0
     diag_shift: float | None = None
@@ -201,7 +203,9 @@ class L2Gain:
 
     (the slack form is in :mod:`vehicle_observers.design.slack`). It implies the decay rate
     ``alpha`` of ``e`` for ``w = 0`` and ``||z||_2 < gamma ||w||_2`` from ``e(0) = 0``.
-    ``gamma=None``: ``g`` is a variable (minimised). Used by
+    ``gamma=None``: ``g`` is a variable (minimised). Discrete time: ``V_{k+1} - r^2 V_k +
+    |z_k|^2 - g |w_k|^2 < 0``, ``r = exp(-alpha dt)`` (:mod:`vehicle_observers.design.slack`).
+    Used by
     :class:`~vehicle_observers.design.slack.SlackSynthesis`, not by ``ObserverSynthesis``."""
 
     alpha: float = 0.0
