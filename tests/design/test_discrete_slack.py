@@ -137,7 +137,7 @@ def test_discrete_l2_quadratic_and_poly_quadratic_match_independent_cvxpy():
             assert v == ref_norm <= opt.value
         assert np.abs(cert.poles).max() < np.exp(-0.5 * DT)
         res[lyap] = des.gamma
-    assert res["slack"] <= res["quadratic"] * (1 + 1e-6)
+    assert res["slack"] <= res["quadratic"] * (1 + 1e-5)     # to the solver accuracy above
     names = [c.name for c in opt.design.certificate.lmi.checks]
     assert names[2:] == ["l2[1,1]", "l2[1,2]", "l2[2,1]", "l2[2,2]"]
 
