@@ -17,7 +17,7 @@ Three further checks from the same data, each necessary for the LMIs to mean wha
   (Boyd, Balakrishnan & Kabamba, MCSS 2(3), 1989; discrete time through the bilinear map
   ``z = (1 + s)/(1 - s)``, which preserves the norm) must not exceed ``gamma``;
 * with a Metzler constraint, the off-diagonal entries of ``A_i - L_j C_i`` (from ``L``, not
-  from ``P``) must be >= 0.
+  from ``P``) must be >= 0; with a (discrete-time) Nonnegative constraint, all its entries.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from vehicle_observers.design.constraints import (
     InputToState,
     InRegion,
     Metzler,
+    Nonnegative,
 )
 from vehicle_observers.design.lmi import (
     MAX_CONDITION,
@@ -337,7 +338,7 @@ def _prepare(synthesis, P, L, gamma, c, batch):
     all_pairs = sorted({(i, j) for _, combo in synthesis.terms for _, i, j in combo})
     index = {p: k for k, p in enumerate(all_pairs)}
     for con in synthesis.constraints:
-        if isinstance(con, Metzler):
+        if isinstance(con, (Metzler, Nonnegative)):
             continue
         g = gamma if not isinstance(con, BoundedReal) or con.gamma is None else con.gamma
         cv = c if not isinstance(con, InputToState) or con.c is None else con.c
@@ -356,6 +357,11 @@ def _prepare(synthesis, P, L, gamma, c, batch):
     Acl = {(i, j): s.A[i] - L[j] @ s.C[i] for i, j in pairs}
     eig = {pr: batch.eigvals(Acl[pr]) for pr in pairs}
     return synthesis, L, Acl, eig, checks, gamma
+
+
+def _pair_suffix(synthesis, i, j) -> str:
+    """``[i]`` (one gain) or ``[i,j]``: the suffix the synthesis names pair ``(i, j)`` with."""
+    return f"[{i + 1}]" if synthesis.gains in ("common", "reduced") else f"[{i + 1},{j + 1}]"
 
 
 def _finish(pending, batch, min_relative_margin, max_condition) -> ObserverCertificate:
@@ -386,6 +392,12 @@ def _finish(pending, batch, min_relative_margin, max_condition) -> ObserverCerti
                 if not inside.all():
                     fails.append(f"{con.label}{tag}: pole {ev[np.argmin(inside)]:.4g} of "
                                  f"A_i - L_j C_i lies outside {con.region.name!r}")
+            elif isinstance(con, Nonnegative):
+                M = Acl[(i, j)]
+                m = float(M.min())
+                checks.append(ConstraintCheck(f"{con.label}{_pair_suffix(synthesis, i, j)}",
+                                              "nonneg", m, m / max(float(np.abs(M).max()),
+                                                                   1e-300), 0.0, M.size))
             elif isinstance(con, Metzler):
                 M = Acl[(i, j)]
                 off = M[~np.eye(s.n, dtype=bool)]
@@ -519,6 +531,37 @@ def certify_parameter_dependent(synthesis, P, L, M, c=None,
 
 
 # ---- slack / fuzzy-Lyapunov designs (vehicle_observers.design.slack) ------------------------
+def _slack_discrete_checks(con, s, Pv, G, X, Y, g2, slack) -> list[ConstraintCheck]:
+    """Discrete-time LMIs of :mod:`vehicle_observers.design.slack` rebuilt in numpy (< 0):
+    ``[[-r^2 P_i, X_i^T], [X_i, Q_ij]]`` (Decay) or the bounded-real matrix with rows
+    ``(e_k, w_k, e_{k+1}, z_k)`` (L2Gain), ``r = exp(-alpha dt)``, ``Q_ij = P_j - G - G^T``
+    over every pair ``(i, j)`` (slack, de Oliveira et al. 1999 / Daafouz & Bernussou 2001) or
+    ``-P`` (quadratic, frozen ``[i]``). ``Pv`` (q, n, n), ``X = M N_i``, ``Y = M B_i`` (q, ...)
+    with ``M = G`` or ``P``; names ``label[i,j]`` / ``label[i]`` as posed."""
+    from vehicle_observers.design.constraints import L2Gain
+
+    q, n = Pv.shape[0], Pv.shape[1]
+    r2 = float(np.exp(-2.0 * con.alpha * s.dt))
+    pairs = [(i, j) for i in range(q) for j in range(q)] if (slack and q > 1) else \
+        [(i, i) for i in range(q)]
+    names, mats = [], []
+    nz, nw = s.H.shape[0], s.nw
+    for i, j in pairs:
+        Q = Pv[j] - G - G.T if slack else -Pv[i]
+        if isinstance(con, L2Gain):
+            mat = np.block([[-r2 * Pv[i], np.zeros((n, nw)), X[i].T, s.H.T],
+                            [np.zeros((nw, n)), -g2 * np.eye(nw), Y[i].T, s.Dz[i].T],
+                            [X[i], Y[i], Q, np.zeros((n, nz))],
+                            [s.H, s.Dz[i], np.zeros((nz, n)), -np.eye(nz)]])
+        else:
+            mat = np.block([[-r2 * Pv[i], X[i].T], [X[i], Q]])
+        names.append(f"{con.label}[{i + 1},{j + 1}]" if (slack and q > 1) else
+                     f"{con.label}[{i + 1}]")
+        mats.append(mat)
+    return check_matrices(names, np.array(mats), "neg")
+
+
+
 def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
                            min_relative_margin: float = MIN_RELATIVE_MARGIN,
                            max_condition: float = MAX_CONDITION) -> ObserverCertificate:
@@ -531,9 +574,12 @@ def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
 
     Checks from the same data, each necessary for the LMIs to mean what they say: the poles of
     every frozen error system ``A_i - L_i C_i`` (``Re < -alpha`` of each decay / L2 constraint,
-    ``|lambda| < radius`` of each disk) and, with an L2 gain, the H-infinity norm of every
-    frozen ``(A_i - L_i C_i, E_i - L_i D_i, H, Dz_i)`` by Hamiltonian bisection (at most
-    ``gamma``)."""
+    in discrete time the spectral radius ``< exp(-alpha dt)`` and ``< 1``; ``|lambda| <
+    radius`` of each disk) and, with an L2 gain, the H-infinity norm of every frozen
+    ``(A_i - L_i C_i, E_i - L_i D_i, H, Dz_i)`` by Hamiltonian bisection (discrete time through
+    the bilinear map, :func:`hinf_norm`; at most ``gamma``). Discrete-time LMIs (Stein and
+    bounded-real, the slack form over every vertex pair ``(i, j)``):
+    :func:`_slack_discrete_checks`."""
     from vehicle_observers.design.constraints import L2Gain, SpectralDisk
 
     s = synthesis.system
@@ -584,10 +630,21 @@ def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
                                  f"of A_i - L_i C_i outside |lambda| < {R:g}")
             continue
         for i in range(q):
-            bad = poles[i, 0].real >= -con.alpha
+            bad = (np.abs(poles[i, 0]) >= np.exp(-con.alpha * s.dt)) if s.discrete else \
+                (poles[i, 0].real >= -con.alpha)
             if bad.any():
                 fails.append(f"{con.label}[{i + 1}]: pole {poles[i, 0][np.argmax(bad)]:.4g} of "
                              f"A_i - L_i C_i violates the decay rate {con.alpha:g}")
+        if isinstance(con, L2Gain):
+            if g2 is None:
+                raise ObserverArgumentError("certify_slack_observer: the L2 constraint needs "
+                                            "gamma")
+            for i in range(q):
+                hinf[(i + 1, int(jv[i]) + 1)] = hinf_norm(Ncl[i], Bcl[i], s.H, s.Dz[i],
+                                                          discrete=s.discrete)
+        if s.discrete:
+            checks.extend(_slack_discrete_checks(con, s, Pv, M, X, Y, g2, slack))
+            continue
         signs = synthesis.signs if (slack and q > 1) else [()]
         for i in range(q):
             for sg in signs:
@@ -597,9 +654,6 @@ def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
                 tag = f"[{i + 1},{''.join('+' if v > 0 else '-' for v in sg)}]" if sg \
                     else f"[{i + 1}]"
                 if isinstance(con, L2Gain):
-                    if g2 is None:
-                        raise ObserverArgumentError("certify_slack_observer: the L2 constraint "
-                                                    "needs gamma")
                     nw, nz = s.nw, s.H.shape[0]
                     if slack:
                         mu = synthesis.mu
@@ -620,10 +674,7 @@ def certify_slack_observer(synthesis, P, L, G=None, gamma: float | None = None,
                 else:
                     mat = lead
                 checks.append(check_matrix(f"{con.label}{tag}", mat, "neg"))
-        if isinstance(con, L2Gain):
-            for i in range(q):
-                hinf[(i + 1, int(jv[i]) + 1)] = hinf_norm(Ncl[i], Bcl[i], s.H, s.Dz[i])
-    if not (poles.real < 0).all():
+    if not ((np.abs(poles) < 1) if s.discrete else (poles.real < 0)).all():
         fails.append("stability: a frozen error system A_i - L_i C_i is not stable")
     cert = Certificate(checks, min_relative_margin, max_condition)
     has_l2 = any(isinstance(c, L2Gain) for c in synthesis.constraints)

@@ -21,6 +21,8 @@ requirement is an LMI in ``(P, K_j, gamma, c)``; ``He(X) = X + X^T``:
 :class:`Metzler`    ``P`` diagonal and every off-diagonal entry of ``P A_i - K_j C_i`` >= 0 (the
                     error system is cooperative: interval observers, Raissi et al. 2012);
                     optionally ``diag(P A_i - K_j C_i + shift P) >= 0``
+:class:`Nonnegative` discrete time: ``P`` diagonal and every entry of ``P A_i - K_j C_i`` >= 0
+                    (positive error system of a discrete-time interval observer)
 ==================  ==============================================================================
 
 A value ``None`` for ``gamma`` / ``c`` makes it a decision variable (minimised by
@@ -110,7 +112,9 @@ class Metzler:
     ``margin``: the solver must reach off-diagonal entries of ``P A_i - K_j C_i`` >= margin
     (so its round-off cannot fail the certificate, which checks >= 0); ``diag_shift`` s:
     also ``diag(P A_i - K_j C_i + s P) >= 0`` (diagonal of ``A - L C`` >= -s, the explicit
-    Euler step bound ``h s <= 1`` of a sampled interval observer)."""
+    Euler step bound ``h s <= 1`` of a sampled interval observer). On a discrete-time
+    system this is still the continuous-time cooperativity (the diagonal is free): the
+    positivity of ``e_{k+1} = (A - L C) e_k`` is :class:`Nonnegative`."""
 
     margin: float = 0.0
     diag_shift: float | None = None
@@ -122,7 +126,33 @@ class Metzler:
                                                     lo=0.0, strict=True, allow_none=True))
 
 
-CONSTRAINTS = (Decay, InRegion, BoundedReal, InputToState, Metzler)
+@dataclass(frozen=True)
+class Nonnegative:
+    """Positive discrete-time error system: every entry of ``A_i - L_j C_i`` >= 0 (``P``
+    diagonal), the discrete-time counterpart of :class:`Metzler`.
+
+    ``e_{k+1} = (A_i - L_j C_i) e_k`` keeps ``e_k >= 0`` for every ``e_0 >= 0`` iff the matrix
+    is entry-wise nonnegative (Farina & Rinaldi, *Positive Linear Systems*, Wiley 2000, Thm 2);
+    with it the errors of an interval observer ``x+ - x`` and ``x - x-`` stay nonnegative
+    (Mazenc & Bernard, Int. J. Robust Nonlinear Control 24, 2014; Efimov, Perruquetti, Raissi
+    & Zolghadri, ECC 2013, Corollary 1 with (7)-(8); Wang et al. 2018). The off-diagonal test of
+    :class:`Metzler` is the continuous-time cooperativity: on a discrete-time system it lets a
+    negative diagonal entry through. Posed as ``P A_i - K_j C_i >= margin`` entry-wise
+    (``P`` diagonal positive, ``K_j = P L_j``: the sign pattern of ``A_i - L_j C_i``); stability
+    comes from a :class:`Decay` / :class:`InRegion` constraint beside it (for a nonnegative
+    matrix a diagonal ``P`` exists iff its spectral radius is < 1, Farina & Rinaldi Thm 15).
+    The certificate checks the entries of ``A_i - L_j C_i`` from ``L`` (>= 0; a shortfall at
+    round-off level, :data:`~vehicle_observers.design.lmi.NONNEG_ROUNDOFF`, is
+    "inconclusive"). Discrete-time systems only."""
+
+    margin: float = 0.0
+    label: str = "nonneg"
+
+    def __post_init__(self):
+        object.__setattr__(self, "margin", _num("Nonnegative", "margin", self.margin, lo=0.0))
+
+
+CONSTRAINTS = (Decay, InRegion, BoundedReal, InputToState, Metzler, Nonnegative)
 
 
 @dataclass(frozen=True)
@@ -173,7 +203,9 @@ class L2Gain:
 
     (the slack form is in :mod:`vehicle_observers.design.slack`). It implies the decay rate
     ``alpha`` of ``e`` for ``w = 0`` and ``||z||_2 < gamma ||w||_2`` from ``e(0) = 0``.
-    ``gamma=None``: ``g`` is a variable (minimised). Used by
+    ``gamma=None``: ``g`` is a variable (minimised). Discrete time: ``V_{k+1} - r^2 V_k +
+    |z_k|^2 - g |w_k|^2 < 0``, ``r = exp(-alpha dt)`` (:mod:`vehicle_observers.design.slack`).
+    Used by
     :class:`~vehicle_observers.design.slack.SlackSynthesis`, not by ``ObserverSynthesis``."""
 
     alpha: float = 0.0

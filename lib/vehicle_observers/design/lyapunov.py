@@ -62,6 +62,13 @@ slack form tends to the common-``P`` design (whose solutions it always contains:
 ``M = -P`` makes ``R = 0``), while without the slack ``R >= phi q P_lower I`` grows without
 bound and the LMIs become infeasible.
 
+Discrete time is not posed here: with ``L(h) = P(h)^-1 K(h)`` the next step's ``P(h_{k+1})``
+multiplies ``P(h_k)^-1``, which no change of variables makes affine. The slack variable of de
+Oliveira, Bernussou & Geromel (1999) separates the two (gain ``G^-1 W(h)``, LMIs over every
+pair ``(h_k, h_{k+1})`` of vertices; Daafouz & Bernussou 2001), which is the discrete-time
+slack form of :class:`~vehicle_observers.design.slack.SlackSynthesis`; it needs no bound on
+how fast the memberships move (a bound on ``|h_{k+1} - h_k|`` is not used there).
+
 Every returned design is certified from the data by
 :func:`vehicle_observers.design.certify.certify_parameter_dependent` (each LMI rebuilt in
 numpy from the vertex matrices, the rate bounds, ``P_k``, ``L_k`` and ``M``, not from the
@@ -175,7 +182,9 @@ class ParameterDependentSynthesis:
         for m, s in enumerate(ms):
             if s.discrete:
                 raise ObserverArgumentError(f"{who}: mode {m + 1} is discrete-time; the rate "
-                                            "bound dP/dt <= R is a continuous-time condition")
+                                            "bound dP/dt <= R is a continuous-time condition "
+                                            "(discrete time: design.slack.SlackSynthesis with "
+                                            "lyapunov='slack', the poly-quadratic form)")
             if s.rate_bounds is None:
                 raise ObserverArgumentError(f"{who}: mode {m + 1} has no rate_bounds "
                                             "(|dh_k/dt| <= phi_k, [1/s]; zeros for frozen "

@@ -1,7 +1,8 @@
 """Observer synthesis with an L2 gain, a Finsler slack variable and a parameter-dependent
 (fuzzy) Lyapunov matrix; and its quadratic (non-relaxed) counterpart.
 
-System: a continuous-time :class:`~vehicle_observers.design.system.PolytopicSystem`
+System: a :class:`~vehicle_observers.design.system.PolytopicSystem` (continuous time below;
+discrete time at the end)
 (vertices ``A_i, C_i, E_i, D_i``, performance output ``z = H e + Dz_i w``, membership rate
 bounds ``|dh_k/dt| <= phi_k`` in ``rate_bounds``). Observer gain ``K_i`` per vertex
 (``gains="pdc"``, blended with the plant's memberships; needs a common ``C`` and ``D`` so that
@@ -54,8 +55,50 @@ Every returned design is certified twice: by the builders' own re-evaluation
 numpy from the system's arrays, the gains ``K_i``, ``P`` (``P_k``), ``G`` and ``g`` alone and
 adds the poles and the H-infinity norm (Hamiltonian bisection) of every frozen error system.
 
-Time: continuous only. Fast dynamics are best solved in a scaled time unit
+Fast continuous dynamics are best solved in a scaled time unit
 (:meth:`~vehicle_observers.design.system.PolytopicSystem.time_scaled`).
+
+Discrete time (``system.time == "discrete"``, sample period ``dt`` [s]): the error is
+``e_{k+1} = N_h e_k + B_h w_k`` with ``N_i = A_i - K_i C``, ``B_i = E_i - K_i D``, and the
+decay rate ``alpha`` [1/s] is the radius ``r = exp(-alpha dt)``: ``V_{k+1} - r^2 V_k +
+|z_k|^2 - g |w_k|^2 < 0``. Same ``X_i, Y_i`` as above.
+
+``"quadratic"``, Stein form (``decay[i]``) and discrete bounded-real lemma (``l2[i]``; Boyd
+et al. 1994 Sec. 2.7.3 / de Souza & Xie 1992, with ``Dz_i`` and the decay radius)::
+
+    [[-r^2 P, X_i^T], [X_i, -P]] < 0
+
+    [[-r^2 P, 0,    X_i^T, H^T   ],
+     [0,      -g I, Y_i^T, Dz_i^T],
+     [X_i,    Y_i,  -P,    0     ],
+     [H,      Dz_i, 0,     -I    ]] < 0
+
+``"slack"``: ``V_k = e_k^T P(h_k) e_k`` with ``P(h) = sum_k h_k P_k``; the next step's
+``P(h_{k+1})`` enters, so the LMIs are stated on every vertex pair ``(i, j)`` (vertex ``i``
+now, ``j`` at the next step: no bound on how fast the memberships move, ``rate_bounds`` and
+``mu`` are not used), with the extended (slack) form of de Oliveira, Bernussou & Geromel
+(Systems & Control Letters 37, 1999, Thm 1), for time-varying memberships Daafouz &
+Bernussou (Systems & Control Letters 43, 2001, Thm 3, "poly-quadratic stability") and for TS
+observers Guerra & Vermeiren (Automatica 40(5), 2004) (``decay[i,j]``, ``l2[i,j]``)::
+
+    [[-r^2 P_i, X_i^T], [X_i, P_j - G - G^T]] < 0
+
+    [[-r^2 P_i, 0,    X_i^T,           H^T   ],
+     [0,        -g I, Y_i^T,           Dz_i^T],
+     [X_i,      Y_i,  P_j - G - G^T,   0     ],
+     [H,        Dz_i, 0,               -I    ]] < 0
+
+Since ``P_j - G - G^T >= -G P_j^-1 G^T`` (``(G - P_j) P_j^-1 (G - P_j)^T >= 0``), the
+congruence with ``diag(I, I, G^-1, I)`` and a Schur complement give ``[N_i B_i]^T P_j [N_i
+B_i] - diag(r^2 P_i, g I) + [H Dz_i]^T [H Dz_i] < 0`` for every ``(i, j)``, which is affine
+in ``h_k`` (through ``i``) and in ``h_{k+1}`` (through ``j``): ``V`` decreases by ``r^2`` and
+the L2 gain is below ``gamma`` for every membership sequence (arbitrary switching included).
+With ``P_k = G = P`` the slack form is the quadratic one (it is never more conservative). The
+gain ``K_h = G^-1 W_h`` is blended with the memberships of the current step.
+:class:`SpectralDisk` ``(radius)`` bounds the poles of each frozen ``N_i`` by ``radius`` (a
+dimensionless disk radius in discrete time; its LMIs are the ones above, frozen ``j = i``).
+The data certificate adds the spectral radius of each ``N_i`` (``< r``, ``< 1``) and the
+discrete H-infinity norm of every frozen ``(N_i, B_i, H, Dz_i)``.
 """
 
 from __future__ import annotations
@@ -118,12 +161,13 @@ class SlackSynthesis:
 
     Parameters
     ----------
-    system : continuous-time :class:`PolytopicSystem` (``rate_bounds`` needed by the slack form
-        with more than one vertex).
+    system : :class:`PolytopicSystem`, continuous time (``rate_bounds`` needed by the slack
+        form with more than one vertex) or discrete time (no rate bounds, no ``mu``).
     constraints : :class:`L2Gain` (at most one), :class:`Decay`, :class:`SpectralDisk`.
     gains : ``"pdc"`` (one gain per vertex; common ``C`` and ``D``) or ``"common"``.
     lyapunov : ``"quadratic"`` or ``"slack"``.
-    mu : the Finsler scalar ``mu > 0`` [time unit of the system] of the slack form.
+    mu : the Finsler scalar ``mu > 0`` [time unit of the system] of the continuous-time slack
+        form (``None`` in discrete time).
     P_lower : ``P - P_lower I > 0`` (every ``P_k``); ``"auto"``: none (``P > 0``) with an
         :class:`L2Gain` (not homogeneous), 1 otherwise.
     eps : strictness imposed on the solver (``LMIDesign.eps``).
@@ -139,8 +183,6 @@ class SlackSynthesis:
         if not isinstance(system, PolytopicSystem):
             raise ObserverArgumentError(f"{who}: system must be a PolytopicSystem, got "
                                         f"{type(system).__name__}")
-        if system.discrete:
-            raise ObserverArgumentError(f"{who}: continuous-time systems only")
         cons = list(constraints) or [Decay(0.0)]
         for c in cons:
             if not isinstance(c, (Decay, *SLACK_CONSTRAINTS)):
@@ -160,7 +202,11 @@ class SlackSynthesis:
         if lyapunov not in LYAPUNOV:
             raise ObserverArgumentError(f"{who}: lyapunov must be one of {LYAPUNOV}, got "
                                         f"{lyapunov!r}")
-        if lyapunov == "slack":
+        if lyapunov == "slack" and system.discrete:
+            if mu is not None:
+                raise ObserverArgumentError(f"{who}: the discrete-time slack form (de Oliveira "
+                                            "et al. 1999) has no Finsler scalar; give mu=None")
+        elif lyapunov == "slack":
             if mu is None or not (np.ndim(mu) == 0 and np.isfinite(mu) and mu > 0):
                 raise ObserverArgumentError(f"{who}: the slack form needs a Finsler scalar "
                                             f"mu > 0, got {mu!r}")
@@ -185,6 +231,8 @@ class SlackSynthesis:
         self.mu, self.P_lower, self.eps, self.order, self.name = mu, P_lower, eps, order, name
         self.n_gains = system.q if gains == "pdc" else 1
         self.signs = sign_patterns(system.q) if lyapunov == "slack" else [()]
+        if lyapunov == "slack" and system.discrete:
+            self.signs = list(range(system.q))       # the next step's vertex j
 
     @property
     def slack(self) -> bool:
@@ -198,6 +246,9 @@ class SlackSynthesis:
         """``(name, vertex, sign pattern)`` of every LMI of constraint ``c``."""
         q = self.system.q
         if self.slack and not isinstance(c, SpectralDisk) and q > 1:
+            if self.system.discrete:                 # (vertex now, vertex at the next step)
+                return [(f"{c.label}[{i + 1},{j + 1}]", i, j)
+                        for i in range(q) for j in self.signs]
             return [(f"{c.label}[{i + 1},{_sign_name(s)}]", i, s)
                     for i in range(q) for s in self.signs]
         return [(f"{c.label}[{i + 1}]", i, ()) for i in range(q)]
@@ -221,8 +272,11 @@ class SlackSynthesis:
 
     def matrix(self, c, V, i: int, s=()):
         """Matrix of constraint ``c`` at vertex ``i``, sign pattern ``s`` (must be < 0, or > 0
-        for :class:`SpectralDisk`)."""
+        for :class:`SpectralDisk`); in discrete time ``s`` is the next step's vertex ``j``
+        (slack form) or ``()``."""
         sy = self.system
+        if sy.discrete and not isinstance(c, SpectralDisk):
+            return self._discrete_matrix(c, V, i, s)
         A, C, E, D, H, Dz = sy.A[i], sy.C[i], sy.E[i], sy.D[i], sy.H, sy.Dz[i]
         W = V[f"W{self.gain_of(i)}"]
         if self.slack:
@@ -258,6 +312,31 @@ class SlackSynthesis:
                      [Pi - G.T + mu * X, -mu * (G + G.T), mu * Y, Z.T],
                      [Y.T, mu * Y.T, -g * np.eye(nw), Dz.T],
                      [H, Z, Dz, -np.eye(nz)]])
+
+    def _discrete_matrix(self, c, V, i: int, j=()):
+        """The discrete-time Stein / bounded-real matrices of the module docstring (< 0)."""
+        sy = self.system
+        A, C, E, D, H, Dz = sy.A[i], sy.C[i], sy.E[i], sy.D[i], sy.H, sy.Dz[i]
+        W = V[f"W{self.gain_of(i)}"]
+        if self.slack:
+            Pi, G = V[f"P{i}"], V.G
+            Pj = V[f"P{i if j == () else j}"]
+            M, nxt = G, Pj - G - G.T
+        else:
+            Pi = M = V.P
+            nxt = -Pi
+        X = M @ A - W @ C
+        r2 = float(np.exp(-2.0 * c.alpha * sy.dt))
+        if isinstance(c, Decay):
+            return bmat([[-r2 * Pi, X.T], [X, nxt]])
+        g = V.g if c.gamma is None else c.gamma ** 2
+        Y = M @ E - W @ D
+        n, nw, nz = sy.n, E.shape[1], H.shape[0]
+        Z = np.zeros
+        return bmat([[-r2 * Pi, Z((n, nw)), X.T, H.T],
+                     [Z((nw, n)), -g * np.eye(nw), Y.T, Dz.T],
+                     [X, Y, nxt, Z((n, nz))],
+                     [H, Dz, Z((nz, n)), -np.eye(nz)]])
 
     def lmi_design(self) -> LMIDesign:
         """The :class:`LMIDesign`: variables ``P`` (quadratic) or ``P0..P{q-1}``, ``G``
@@ -361,8 +440,9 @@ class SlackSynthesis:
         the smallest ``gamma`` (the first feasible one without an objective) among the values
         whose solution is found and not "violated". Raises :class:`InfeasibleDesign` naming
         every ``mu`` when none works."""
-        if not self.slack:
-            raise ObserverArgumentError(f"{self.name}: best_mu needs lyapunov='slack'")
+        if not self.slack or self.system.discrete:
+            raise ObserverArgumentError(f"{self.name}: best_mu needs lyapunov='slack' in "
+                                        "continuous time (the discrete-time form has no mu)")
         mus = np.atleast_1d(np.asarray(mus, dtype=float))
         if mus.size == 0 or not np.all(np.isfinite(mus) & (mus > 0)):
             raise ObserverArgumentError(f"{self.name}: need mu > 0 (Finsler scalar), got {mus}")

@@ -64,6 +64,7 @@ from vehicle_observers.design.constraints import (
     InputToState,
     InRegion,
     Metzler,
+    Nonnegative,
 )
 from vehicle_observers.design.lmi import (
     MAX_CONDITION,
@@ -279,6 +280,13 @@ class ObserverSynthesis:
         if any(isinstance(c, Metzler) for c in cons) and P != "diagonal":
             raise ObserverArgumentError(f"{who}: a Metzler constraint needs P='diagonal' "
                                         "(then P A - K C Metzler <=> A - L C Metzler)")
+        if any(isinstance(c, Nonnegative) for c in cons):
+            if P != "diagonal":
+                raise ObserverArgumentError(f"{who}: a Nonnegative constraint needs "
+                                            "P='diagonal' (then P A - K C >= 0 <=> A - L C >= 0)")
+            if not system.discrete:
+                raise ObserverArgumentError(f"{who}: Nonnegative is the discrete-time positivity "
+                                            "of A - L C; use Metzler in continuous time")
         if order not in ("vertex", "constraint"):
             raise ObserverArgumentError(f"{who}: order must be 'vertex' or 'constraint'")
         if gains == "pairs":
@@ -359,7 +367,7 @@ class ObserverSynthesis:
         if self.P_upper is not None:
             pu = self.P_upper
             d.positive(self.upper_name, lambda V: pu * I - V.P)
-        lmis = [c for c in self.constraints if not isinstance(c, Metzler)]
+        lmis = [c for c in self.constraints if not isinstance(c, (Metzler, Nonnegative))]
         items = ([(c, t) for t in self.terms for c in lmis] if self.order == "vertex"
                  else [(c, t) for c in lmis for t in self.terms])
         for c, (suffix, combo) in items:
@@ -373,6 +381,13 @@ class ObserverSynthesis:
                 return M
             d.negative(f"{c.label}{suffix}", build)
         for c in self.constraints:
+            if isinstance(c, Nonnegative):
+                for i, j in self._pairs():
+                    suffix = f"[{i + 1}]" if self.gains in ("common", "reduced") else \
+                        f"[{i + 1},{j + 1}]"
+                    d.nonnegative(f"{c.label}{suffix}",
+                                  lambda V, i=i, j=j: V.P @ s.A[i] - V[gn[j]] @ s.C[i],
+                                  margin=c.margin)
             if not isinstance(c, Metzler):
                 continue
             for i, j in self._pairs():
