@@ -522,21 +522,7 @@ class ObserverSynthesis:
             def feasible(a, **th):
                 return self._feasible(at(a), raise_on_violation=False, **th)
 
-        best = feasible(lo, **kw)
-        if best is None or best.status == "violated":
-            raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}",
-                                   lmi=c0.label)
-        a_lo, a_hi = lo, hi
-        top = feasible(hi, **kw)
-        if top is not None and top.status != "violated":
-            a_lo, best = hi, top
-        while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
-            mid = 0.5 * (a_lo + a_hi)
-            des = feasible(mid, **kw)
-            if des is not None and des.status != "violated":
-                a_lo, best = mid, des
-            else:
-                a_hi = mid
+        a_lo, best = bisect_decay(lambda a: feasible(a, **kw), lo, hi, tol, who, c0.label)
         value = a_lo * (1.0 - backoff)
         design = at(value).solve(**kw)
         return OptimisedDesign("alpha", a_lo, value, backoff, design, best)
@@ -560,6 +546,32 @@ class ObserverSynthesis:
         value = optimum * (1.0 + backoff)
         design = self._with(c0, dataclasses.replace(c0, **{var: value})).solve(**kw)
         return OptimisedDesign(var, optimum, value, backoff, design, opt)
+
+
+def bisect_decay(feasible, lo: float, hi: float, tol: float, who: str, label: str):
+    """Largest decay rate ``alpha`` in ``[lo, hi]`` (to relative/absolute ``tol``) at which
+    ``feasible(alpha)`` returns a design whose data certificate is not "violated" (``None``:
+    no point), feasibility being monotone in ``alpha``; ``hi`` is tried first. Returns
+    ``(alpha, design at alpha)``; :class:`InfeasibleDesign` naming ``label`` if ``lo``
+    fails."""
+    def ok(d):
+        return d is not None and d.status != "violated"
+
+    best = feasible(lo)
+    if not ok(best):
+        raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}", lmi=label)
+    a_lo, a_hi = lo, hi
+    top = feasible(hi)
+    if ok(top):
+        a_lo, best = hi, top
+    while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
+        mid = 0.5 * (a_lo + a_hi)
+        des = feasible(mid)
+        if ok(des):
+            a_lo, best = mid, des
+        else:
+            a_hi = mid
+    return a_lo, best
 
 
 def _backoff_ok(who, b):
