@@ -12,7 +12,8 @@ def test_compiled_and_reference_maps_agree_and_file_is_written(tmp_path, capsys)
     (catches a compiled map that drops or invents feasible points), and the JSON holds the
     split of the compiled map's time."""
     out = tmp_path / "t.json"
-    assert lmi_layer.main(["--points", "12", "--repeat", "1", "--out", str(out)]) == 0
+    assert lmi_layer.main(["--points", "12", "--repeat", "1", "--dmvt-rows", "0",
+                           "--out", str(out)]) == 0
     doc = json.loads(out.read_text())
     ref, pm = doc["parametric_map_reference"], doc["parametric_map"]
     assert (ref["certified"], ref["infeasible"]) == (pm["certified"], pm["infeasible"])
@@ -29,6 +30,9 @@ def test_compiled_and_reference_maps_agree_and_file_is_written(tmp_path, capsys)
         assert b["optimum"] == a["optimum"] and b["status"] == a["status"] == "certified"
         assert b["solver_calls"] == a["solver_calls"] >= 10
         assert a["solver_wall_s"] > 0 and a["total_s"] > a["solver_wall_s"]
+    # notebook 04's radius bisections are skipped here (their sweep costs seconds; the two
+    # paths are compared in tests/observers/test_dmvt_compiled.py)
+    assert doc["disk_bisection_04"] is None
 
 
 def test_bad_points_exit_2(capsys):
@@ -36,4 +40,6 @@ def test_bad_points_exit_2(capsys):
     assert lmi_layer.main(["--points", "2"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert lmi_layer.main(["--repeat", "0"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert lmi_layer.main(["--dmvt-rows", "9"]) == 2
     assert capsys.readouterr().err.count("\n") == 1

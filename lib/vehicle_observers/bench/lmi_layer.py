@@ -14,6 +14,13 @@ posed and canonicalised by cvxpy at every step) and after (``compiled=True``: on
 compiled once with the decay rate as a Parameter), the solver's time being the wall time
 inside every Clarabel ``solve`` call of the bisection, infeasible steps and the backed-off
 solve included, and the two optima compared.
+The disk-radius bisections of notebook 04 (Ichalal 2011, LMIs (23) + (35)-(36) on the
+bicycle's Jacobian TS vertices, one bisection per half-plane ``a`` of the notebook's region
+sweep, in the bracket the sweep's grid gives, to 0.1 1/s;
+:func:`~vehicle_observers.observers.dmvt.min_feasible_radius`): total / solver and total
+time before (``compiled=False``) and after (``compiled=True``: the radius a Parameter of one
+compiled problem per bisection), the radii compared (``--dmvt-rows`` half-plane values of
+the grid, default all; 0 skips them).
 The map solves ``Decay(alpha) + InRegion(disk(R))`` on a grid of ``N`` points (default 1000)
 three times: one :class:`ObserverSynthesis` per point (each canonicalised by cvxpy); built
 once with cvxpy Parameters and solved by ``Problem.solve`` per point, each point certified
@@ -172,6 +179,55 @@ def time_bisection(syn, hi: float, compiled: bool, repeat: int = 3) -> dict:
     return best
 
 
+#: notebook 04's full-mode region sweep: half-plane ``a`` and disk radius ``R`` grids [1/s],
+#: and the tolerance of its radius bisections [1/s]
+NB04_A = (0.0, 2.0, 4.0, 6.0, 8.0)
+NB04_R = (4.0, 6.0, 8.0, 10.0, 15.0, 20.0)
+NB04_TOL = 0.1
+
+
+def nb04_problem():
+    """Notebook 04's LMI data: the Jacobian TS vertices (34) of the bicycle (25) with law (27)
+    from ``x(0) = 0`` over 20 s at 1 ms (``BicycleParams()`` holds Ichalal 2011's constants,
+    Appendix A), (q, 4, 4), and the output matrix (28) (2, 4)."""
+    from vehicle_observers.models import bicycle as b
+    from vehicle_observers.models.ts import jacobian_ts_from_samples
+
+    bp = b.BicycleParams()
+    t = np.arange(0.0, 20.0, 1e-3)
+    X, U = b.simulate(bp, t)
+    jts = jacobian_ts_from_samples(b.jacobian(X, U, bp), names=["xi1", "xi2"])
+    return jts.vertices, np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
+
+
+def time_disk_bisections(rows: int = len(NB04_A), repeat: int = 3) -> dict:
+    """Notebook 04's radius bisections (one per bracket of its region sweep on the first
+    ``rows`` half-plane values; the sweep itself is not timed), best of ``repeat`` runs per
+    path: ``before`` (``compiled=False``) and ``after`` (``compiled=True``), each with total
+    and solver time (wall inside Clarabel's ``solve``), solver calls and the radii."""
+    from vehicle_observers.observers import dmvt
+
+    V, C = nb04_problem()
+    brackets = dmvt.sweep_brackets(dmvt.region_sweep(V, C, NB04_A[:rows], NB04_R))
+    out = {"brackets": [list(b) for b in brackets]}
+    for key, compiled in (("before", False), ("after", True)):
+        best = None
+        for _ in range(repeat):
+            with _ClarabelClock() as clock:
+                t0 = time.perf_counter()
+                radii = [dmvt.min_feasible_radius(V, C, a, lo, hi, tol=NB04_TOL,
+                                                  check_ends=False, compiled=compiled)
+                         for a, lo, hi in brackets]
+                total = time.perf_counter() - t0
+            row = {"total_s": total, "solver_wall_s": clock.wall_s, "solver_s": clock.own_s,
+                   "solver_calls": clock.calls, "radii": radii}
+            if best is None or total < best["total_s"]:
+                best = row
+        best["ratio"] = best["total_s"] / best["solver_wall_s"]
+        out[key] = best
+    return out
+
+
 def feasibility_map(points: int = 1000) -> dict:
     alphas, radii = _grid(points)
     na, nr = alphas.size, radii.size
@@ -257,7 +313,13 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="build/timings/lmi_layer.json")
     ap.add_argument("--repeat", type=int, default=3,
                     help="timed runs of each design and bisection (the fastest is kept)")
+    ap.add_argument("--dmvt-rows", type=int, default=len(NB04_A),
+                    help="half-plane values of notebook 04's sweep whose radius bisections "
+                         f"are timed (0..{len(NB04_A)}; 0: none)")
     args = ap.parse_args(argv)
+    if not 0 <= args.dmvt_rows <= len(NB04_A):
+        print(f"--dmvt-rows must be in 0..{len(NB04_A)}", file=sys.stderr)
+        return 2
     if args.points < 4:
         print("--points must be >= 4", file=sys.stderr)
         return 2
@@ -284,6 +346,16 @@ def main(argv=None) -> int:
               f" -> compiled once {after['ratio']:5.2f} ({before['solver_calls']} solver "
               f"calls; {same}, {after['status']}; before / after total time = "
               f"{before['total_s'] / after['total_s']:.2f})")
+    dm = time_disk_bisections(args.dmvt_rows, args.repeat) if args.dmvt_rows else None
+    if dm is not None:
+        b4, a4 = dm["before"], dm["after"]
+        same = "same radii" if b4["radii"] == a4["radii"] else \
+            f"radii {b4['radii']} -> {a4['radii']}"
+        print(f"04 disk bisections ({len(dm['brackets'])}, {b4['solver_calls']} solver calls):"
+              f" total/solver posed per step {b4['ratio']:5.2f} -> compiled once "
+              f"{a4['ratio']:5.2f}; before / after total time = "
+              f"{b4['total_s'] / a4['total_s']:.2f}, solver time = "
+              f"{b4['solver_wall_s'] / a4['solver_wall_s']:.2f} ({same})")
     m = feasibility_map(args.points)
     print(f"map of {m['points']} points: {m['certified']} certified; total / solver time of "
           f"the feasible points = {m['ratio_feasible_solver']:.2f} (infeasible points add "
@@ -308,7 +380,8 @@ def main(argv=None) -> int:
         print("the two maps disagree on the counts", file=sys.stderr)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"designs": rows, "maximise_decay": bis, "map": m,
+    out.write_text(json.dumps({"designs": rows, "maximise_decay": bis, "disk_bisection_04": dm,
+                               "map": m,
                                "parametric_map_reference": ref, "parametric_map": pm},
                               indent=1))
     return 0

@@ -69,6 +69,18 @@ pair ``(h_k, h_{k+1})`` of vertices; Daafouz & Bernussou 2001), which is the dis
 slack form of :class:`~vehicle_observers.design.slack.SlackSynthesis`; it needs no bound on
 how fast the memberships move (a bound on ``|h_{k+1} - h_k|`` is not used there).
 
+Optimise, back off, certify (as :class:`~vehicle_observers.design.synthesis.ObserverSynthesis`):
+:meth:`ParameterDependentSynthesis.minimise` finds the smallest bounds ``c_m`` of an
+``InputToState(c=None)`` (one optimisation), fixes them at ``c_m (1 + backoff)`` and
+re-solves the feasibility problem; :meth:`ParameterDependentSynthesis.maximise_decay` finds
+the largest ``alpha`` of the single :class:`Decay` / :class:`InputToState` by bisection
+(``P_k > 0``, the coefficients of every relaxation positive: feasibility is monotone in
+``alpha``) and re-solves at ``alpha (1 - backoff)``. The optimum sits on the boundary of the
+feasible set (its certificate at round-off level, "inconclusive"); the backed-off design has
+a real margin. Both return an :class:`~vehicle_observers.design.synthesis.OptimisedDesign`
+(optimum, backed-off value, the certified design, its margin); the certificate thresholds
+are per call.
+
 Every returned design is certified from the data by
 :func:`vehicle_observers.design.certify.certify_parameter_dependent` (each LMI rebuilt in
 numpy from the vertex matrices, the rate bounds, ``P_k``, ``L_k`` and ``M``, not from the
@@ -77,11 +89,12 @@ builders below).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from vehicle_observers.core.errors import CertificationError, ObserverArgumentError
+from vehicle_observers.core.errors import CertificationError, InfeasibleDesign, ObserverArgumentError
 from vehicle_observers.design.constraints import Decay, InputToState, Metzler, OnVertices
 from vehicle_observers.design.lmi import (
     MAX_CONDITION,
@@ -90,7 +103,16 @@ from vehicle_observers.design.lmi import (
     LMISolution,
     bmat,
 )
-from vehicle_observers.design.synthesis import RELAXATIONS, _diag, _offdiag, pair_matrix, terms
+from vehicle_observers.design.synthesis import (
+    RELAXATIONS,
+    OptimisedDesign,
+    _backoff_ok,
+    _diag,
+    _offdiag,
+    bisect_decay,
+    pair_matrix,
+    terms,
+)
 from vehicle_observers.design.system import PolytopicSystem
 
 COUPLINGS = ("relaxed", "vertex")
@@ -164,6 +186,8 @@ class ParameterDependentSynthesis:
     names : variable-name formats overriding :data:`NAMES` (keys ``P``, ``K``, ``M``, ``c``;
         fields ``{m}``, ``{k}``); with ``per_mode_c=False`` the ``c`` name is formatted with
         ``m=""``.
+    c_values : fixed bounds ``c_m`` (one per mode) of an ``InputToState(c=None)`` instead of
+        variables (the backed-off design of :meth:`minimise`); ``None``: variables.
     name : the design's name in every message.
     """
 
@@ -171,9 +195,13 @@ class ParameterDependentSynthesis:
                  coupling: str = "relaxed", relaxation: str = "tuan",
                  P_lower: float | None = 1.0, P_upper: float | None = None, eps: float = 1e-7,
                  per_mode_c: bool = True,
-                 names: dict | None = None, extra=None,
+                 names: dict | None = None, extra=None, c_values=None,
                  name: str = "parameter-dependent design"):
         who = f"ParameterDependentSynthesis {name!r}"
+        self._args = dict(modes=modes, constraints=constraints, P=P, slack=slack,
+                          coupling=coupling, relaxation=relaxation, P_lower=P_lower,
+                          P_upper=P_upper, eps=eps, per_mode_c=per_mode_c, names=names,
+                          extra=extra, c_values=c_values, name=name)
         ms = list(modes) if isinstance(modes, (list, tuple)) else [modes]
         if not ms or not all(isinstance(s, PolytopicSystem) for s in ms):
             raise ObserverArgumentError(f"{who}: modes must be a PolytopicSystem or a list of "
@@ -239,6 +267,20 @@ class ParameterDependentSynthesis:
         if extra is not None and not callable(extra):
             raise ObserverArgumentError(f"{who}: extra must be a function of the variables")
         self.extra = extra
+        if c_values is not None:
+            cv = np.asarray(c_values, dtype=float).ravel()
+            iss = [self.inner(c) for c in cons if isinstance(self.inner(c), InputToState)]
+            if not iss or iss[0].c is not None:
+                raise ObserverArgumentError(f"{who}: c_values needs an InputToState(c=None)")
+            if cv.shape != (len(ms),) or not np.all(np.isfinite(cv) & (cv > 0)):
+                raise ObserverArgumentError(f"{who}: c_values must be {len(ms)} finite numbers "
+                                            f"> 0 (one per mode), got {c_values!r}")
+            c_values = cv
+        self.c_values = c_values
+
+    def replace(self, **kw) -> "ParameterDependentSynthesis":
+        """A copy with some arguments changed (e.g. ``constraints=[...]``)."""
+        return ParameterDependentSynthesis(**{**self._args, **kw})
 
     # ---- names and terms ------------------------------------------------------------------
     def var(self, what: str, m: int, k: int = 0) -> str:
@@ -294,7 +336,7 @@ class ParameterDependentSynthesis:
                 d.symmetric(self.var("M", m), n)
         iss = [self.inner(c) for c in self.constraints
                if isinstance(self.inner(c), InputToState)]
-        if iss and iss[0].c is None:
+        if iss and iss[0].c is None and self.c_values is None:
             for cn in dict.fromkeys(self.var("c", m) for m in range(len(self.modes))):
                 d.scalar(cn)
         I = np.eye(n)
@@ -310,8 +352,9 @@ class ParameterDependentSynthesis:
 
             def build(V, c, combo, m=m, Pn=Pn, Kn=Kn, R=R):
                 inner, sv = self.inner(c), self.vertex_system(c, m)
-                cv = {"c": V[self.var("c", m)] if isinstance(inner, InputToState)
-                      and inner.c is None else None}
+                free = isinstance(inner, InputToState) and inner.c is None
+                cv = {"c": (V[self.var("c", m)] if self.c_values is None
+                            else float(self.c_values[m])) if free else None}
                 Rv = R(V)
                 out = None
                 for coef, i, j in combo:
@@ -397,7 +440,9 @@ class ParameterDependentSynthesis:
         iss = [self.inner(c) for c in self.constraints
                if isinstance(self.inner(c), InputToState)]
         cval = None
-        if iss:
+        if iss and self.c_values is not None:
+            cval = self.c_values.copy()
+        elif iss:
             cval = (np.array([float(sol[self.var("c", m)]) for m in range(len(self.modes))])
                     if iss[0].c is None else np.full(len(self.modes), iss[0].c))
         cert = certify_parameter_dependent(self, P, L, M, cval,
@@ -409,3 +454,61 @@ class ParameterDependentSynthesis:
                                      f"{cert.reason()} (solver status {sol.status!r})",
                                      lmi=cert.worst_name(), status=sol.status)
         return des
+
+    # ---- optimise -> back off -> certify -------------------------------------------------
+    def minimise(self, backoff: float = 0.05, **kw) -> OptimisedDesign:
+        """Smallest input-to-state bounds ``c_m`` (``InputToState(c=None)``; ``sum_m c_m``
+        minimised, :meth:`solve` ``"c"``), then the feasibility problem re-solved with every
+        ``c_m`` fixed at ``c_m (1 + backoff)`` (``c_values``): its solution has a real margin.
+        ``kw``: thresholds of :meth:`solve` (``min_relative_margin``, ``max_condition``).
+
+        Returns an :class:`~vehicle_observers.design.synthesis.OptimisedDesign` with
+        ``quantity = "c"``; ``optimum`` and ``value`` are floats with one mode or a shared
+        ``c``, else arrays (modes,). Raises :class:`CertificationError` if the backed-off
+        design is "violated"."""
+        who = f"{self.name}: minimise"
+        _backoff_ok(who, backoff)
+        iss = [self.inner(c) for c in self.constraints if isinstance(self.inner(c), InputToState)]
+        if not iss or iss[0].c is not None or self.c_values is not None:
+            raise ObserverArgumentError(f"{who}: needs an InputToState(c=None) with free c")
+        opt = self.solve("c", raise_on_violation=False, **kw)
+        value = opt.c * (1.0 + backoff)
+        design = self.replace(c_values=value).solve(**kw)
+        one = len(self.modes) == 1 or not self.per_mode_c
+        return OptimisedDesign("c", float(opt.c[0]) if one else opt.c.copy(),
+                               float(value[0]) if one else value, backoff, design, opt)
+
+    def maximise_decay(self, hi: float, lo: float = 0.0, tol: float = 1e-3,
+                       backoff: float = 0.05, **kw) -> OptimisedDesign:
+        """Largest decay rate ``alpha`` [1/s] of the single :class:`Decay` or
+        :class:`InputToState` constraint (possibly in :class:`OnVertices`), by bisection on
+        ``[lo, hi]`` to relative/absolute ``tol``
+        (:func:`~vehicle_observers.design.synthesis.bisect_decay`: a step is feasible when the
+        solver finds a point whose data certificate is not "violated"), then the design at
+        ``alpha (1 - backoff)``, certified with a real margin. ``kw``: thresholds of
+        :meth:`solve`. Each step poses its own problem (:meth:`solve`)."""
+        who = f"{self.name}: maximise_decay"
+        tgt = [c for c in self.constraints if isinstance(self.inner(c), (Decay, InputToState))]
+        if len(tgt) != 1:
+            raise ObserverArgumentError(f"{who}: needs exactly one Decay or InputToState "
+                                        "constraint to vary")
+        if not (0 <= lo < hi and np.isfinite(hi)):
+            raise ObserverArgumentError(f"{who}: need 0 <= lo < hi < inf, got [{lo}, {hi}]")
+        _backoff_ok(who, backoff)
+        c0 = tgt[0]
+
+        def at(a):
+            inner = dataclasses.replace(self.inner(c0), alpha=a)
+            new = dataclasses.replace(c0, constraint=inner) if isinstance(c0, OnVertices) \
+                else inner
+            return self.replace(constraints=[new if c is c0 else c for c in self.constraints])
+
+        def feasible(a):
+            try:
+                return at(a).solve(raise_on_violation=False, **kw)
+            except InfeasibleDesign:
+                return None
+
+        a_lo, best = bisect_decay(feasible, lo, hi, tol, who, self.inner(c0).label)
+        value = a_lo * (1.0 - backoff)
+        return OptimisedDesign("alpha", a_lo, value, backoff, at(value).solve(**kw), best)

@@ -130,6 +130,8 @@ def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V, rate=None):
             return M + 2.0 * rate * P
         return M + 2.0 * c.alpha * P if c.alpha else M
     if isinstance(c, InRegion):
+        if rate is not None:
+            return disk_lmi(c.region, P, PA, rate)
         return c.region.lmi(P, PA)
     PE = P @ E - K @ D if np.any(D) else P @ E
     if isinstance(c, BoundedReal):
@@ -153,6 +155,26 @@ def pair_matrix(c, system: PolytopicSystem, P, K, i: int, V, rate=None):
         EP = E.T @ P if not np.any(D) else PE.T
         return bmat([[X, PE], [EP, -cc * np.eye(E.shape[1])]])
     raise TypeError(type(c))
+
+
+def disk_center(region) -> float | None:
+    """The center of a disk region (:func:`~vehicle_observers.design.lmi.disk`: ``L = [[-R, -c],
+    [-c, -R]]``, ``M = [[0, 1], [0, 0]]``), ``None`` if ``region`` is not a disk."""
+    L, M = region.L, region.M
+    if L.shape != (2, 2) or not np.array_equal(M, [[0.0, 1.0], [0.0, 0.0]]) or \
+            L[0, 0] != L[1, 1] or not L[0, 0] < 0:
+        return None
+    return float(-L[0, 1])
+
+
+def disk_lmi(region, P, PA, R):
+    """Chilali-Gahinet matrix of the disk ``region`` with its radius replaced by ``R`` (a cvxpy
+    Parameter, :class:`CompiledBisection`): ``[[-R P, q P + P A], [q P + A^T P, -R P]]``
+    (Ichalal 2011 eq. (36) with center ``-q``), the radius entering affinely."""
+    from vehicle_observers.design.lmi import Region, kron
+
+    L0 = region.L - region.L[0, 0] * np.eye(2)           # the center part, zero diagonal
+    return Region(region.name, L0, region.M).lmi(P, PA) - R * kron(np.eye(2), P)
 
 
 def _offdiag(X):
@@ -343,11 +365,12 @@ class ObserverSynthesis:
         return ObserverSynthesis(**args)
 
     # ---- the LMIs -------------------------------------------------------------------------
-    def lmi_design(self, rate=None) -> LMIDesign:
+    def lmi_design(self, rate=None, target=None) -> LMIDesign:
         """The :class:`LMIDesign` of this synthesis (variables ``P``, ``K0..``, ``gamma``,
         ``c``; constraints named ``label[i]`` / ``label[i,j]``). ``rate``: a cvxpy Parameter
         in place of the decay requirement of the (single) :class:`Decay` /
-        :class:`InputToState` constraint (:func:`pair_matrix`)."""
+        :class:`InputToState` constraint, or, with ``target`` (one of the constraints, an
+        :class:`InRegion` disk), in place of that disk's radius (:func:`pair_matrix`)."""
         s, n, p, eps = self.system, self.system.n, self.system.p, self.eps
         d = LMIDesign(self.name, eps=eps)
         (d.diagonal if self.P_kind == "diagonal" else d.symmetric)("P", n)
@@ -374,8 +397,9 @@ class ObserverSynthesis:
             def build(V, c=c, combo=combo):
                 M = None
                 for coef, i, j in combo:
-                    G = pair_matrix(c, s, V.P, V[gn[j]], i, V, rate=rate if isinstance(
-                        c, (Decay, InputToState)) else None)
+                    hit = c is target if target is not None else isinstance(
+                        c, (Decay, InputToState))
+                    G = pair_matrix(c, s, V.P, V[gn[j]], i, V, rate=rate if hit else None)
                     G = G if coef == 1.0 else coef * G
                     M = G if M is None else M + G
                 return M
@@ -513,21 +537,7 @@ class ObserverSynthesis:
             def feasible(a, **th):
                 return self._feasible(at(a), raise_on_violation=False, **th)
 
-        best = feasible(lo, **kw)
-        if best is None or best.status == "violated":
-            raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}",
-                                   lmi=c0.label)
-        a_lo, a_hi = lo, hi
-        top = feasible(hi, **kw)
-        if top is not None and top.status != "violated":
-            a_lo, best = hi, top
-        while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
-            mid = 0.5 * (a_lo + a_hi)
-            des = feasible(mid, **kw)
-            if des is not None and des.status != "violated":
-                a_lo, best = mid, des
-            else:
-                a_hi = mid
+        a_lo, best = bisect_decay(lambda a: feasible(a, **kw), lo, hi, tol, who, c0.label)
         value = a_lo * (1.0 - backoff)
         design = at(value).solve(**kw)
         return OptimisedDesign("alpha", a_lo, value, backoff, design, best)
@@ -551,6 +561,32 @@ class ObserverSynthesis:
         value = optimum * (1.0 + backoff)
         design = self._with(c0, dataclasses.replace(c0, **{var: value})).solve(**kw)
         return OptimisedDesign(var, optimum, value, backoff, design, opt)
+
+
+def bisect_decay(feasible, lo: float, hi: float, tol: float, who: str, label: str):
+    """Largest decay rate ``alpha`` in ``[lo, hi]`` (to relative/absolute ``tol``) at which
+    ``feasible(alpha)`` returns a design whose data certificate is not "violated" (``None``:
+    no point), feasibility being monotone in ``alpha``; ``hi`` is tried first. Returns
+    ``(alpha, design at alpha)``; :class:`InfeasibleDesign` naming ``label`` if ``lo``
+    fails."""
+    def ok(d):
+        return d is not None and d.status != "violated"
+
+    best = feasible(lo)
+    if not ok(best):
+        raise InfeasibleDesign(f"{who}: infeasible already at alpha = {lo:g}", lmi=label)
+    a_lo, a_hi = lo, hi
+    top = feasible(hi)
+    if ok(top):
+        a_lo, best = hi, top
+    while a_hi - a_lo > tol * max(1.0, a_lo) and a_lo < hi:
+        mid = 0.5 * (a_lo + a_hi)
+        des = feasible(mid)
+        if ok(des):
+            a_lo, best = mid, des
+        else:
+            a_hi = mid
+    return a_lo, best
 
 
 def _backoff_ok(who, b):
@@ -731,6 +767,13 @@ class CompiledBisection:
     (:func:`~vehicle_observers.design.certify.certify_observer`) of the solution, or ``None``
     where the solver finds no point.
 
+    With ``target``, an :class:`InRegion` constraint of a disk (:func:`~vehicle_observers.
+    design.lmi.disk`, any center), the Parameter is instead that disk's radius ``R``
+    [1/s] (``[[-R P, q P + P A_i - K_j C_i], [*, -R P]] < 0``, :func:`disk_lmi`, affine in
+    ``R``), every other constraint (a ``Decay`` included) posed with its number, and
+    :meth:`solve` takes the radius (Ichalal 2011 (36), the radius bisection of
+    :func:`vehicle_observers.observers.dmvt.min_feasible_radius`).
+
     Parameters
     ----------
     synthesis : the design; its one ``Decay`` / ``InputToState`` constraint is varied.
@@ -747,17 +790,26 @@ class CompiledBisection:
     STATUS = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate",
               "MaxIterations": "user_limit", "MaxTime": "user_limit"}
 
-    def __init__(self, synthesis: ObserverSynthesis, reuse: bool = False):
+    def __init__(self, synthesis: ObserverSynthesis, reuse: bool = False, target=None):
         import cvxpy as cp
 
-        tgt = [c for c in synthesis.constraints if isinstance(c, (Decay, InputToState))]
-        if len(tgt) != 1:
-            raise ObserverArgumentError(f"{synthesis.name}: CompiledBisection needs exactly one "
-                                        "Decay or InputToState constraint to vary")
-        self.synthesis, self.target = synthesis, tgt[0]
+        if target is None:
+            tgt = [c for c in synthesis.constraints if isinstance(c, (Decay, InputToState))]
+            if len(tgt) != 1:
+                raise ObserverArgumentError(f"{synthesis.name}: CompiledBisection needs exactly "
+                                            "one Decay or InputToState constraint to vary")
+            target = tgt[0]
+        elif not any(c is target for c in synthesis.constraints) or not isinstance(
+                target, InRegion) or disk_center(target.region) is None:
+            raise ObserverArgumentError(f"{synthesis.name}: CompiledBisection target must be "
+                                        "one of the synthesis' constraints, an InRegion of a disk")
+        self.synthesis, self.target = synthesis, target
+        #: the Parameter is a disk's radius (else a decay requirement)
+        self.radius = isinstance(target, InRegion)
         self.discrete = isinstance(self.target, Decay) and synthesis.system.discrete
-        self.rate = cp.Parameter(nonneg=True, name="rho" if self.discrete else "alpha")
-        d = synthesis.lmi_design(rate=self.rate)
+        self.rate = cp.Parameter(nonneg=True, name="R" if self.radius else
+                                 "rho" if self.discrete else "alpha")
+        d = synthesis.lmi_design(rate=self.rate, target=target if self.radius else None)
         self._exprs, self._raw = d._vars, d._raw
         prob = cp.Problem(cp.Minimize(0), d._cvx_constraints())
         self.compiled = CompiledLMI(prob, [self.rate],
@@ -765,20 +817,31 @@ class CompiledBisection:
         self.compiled.OK = tuple(self.STATUS)
         self.compiled.reuse = bool(reuse)
 
+    def at(self, x: float) -> ObserverSynthesis:
+        """The synthesis with the varied requirement at ``x`` (a decay rate, or the disk's
+        radius; the disk keeps its center and a label of its own)."""
+        if not self.radius:
+            return self.synthesis._with(self.target, dataclasses.replace(self.target, alpha=x))
+        t = self.target
+        reg = disk(x, disk_center(t.region))
+        label = None if t.label == f"region {t.region.name}" else t.label
+        return self.synthesis._with(t, InRegion(reg, label=label))
+
     def value(self, alpha: float) -> float:
         """The Parameter's value at decay rate ``alpha``: ``alpha``, or ``exp(-alpha dt)``
-        (discrete-time ``Decay``, as :func:`decay_region`)."""
+        (discrete-time ``Decay``, as :func:`decay_region`); a radius as it is."""
         if self.discrete:
             return float(np.exp(-alpha * self.synthesis.system.dt))
         return float(alpha)
 
     def solve(self, alpha: float, min_relative_margin: float = MIN_RELATIVE_MARGIN,
               max_condition: float = MAX_CONDITION) -> ObserverDesign | None:
-        """The design at decay rate ``alpha`` (its synthesis the original one with that
-        ``alpha``), certified from the data; ``None`` if the solver finds no point. Its
+        """The design at decay rate ``alpha`` (or at the disk radius ``alpha`` with a disk
+        ``target``; its synthesis the original one with that requirement), certified from the
+        data; ``None`` if the solver finds no point. Its
         ``solution.solve_time`` is the wall time of the substitution, the solve and the
         recovery of the variables [s]; ``solution.solver_seconds`` Clarabel's own."""
-        syn = self.synthesis._with(self.target, dataclasses.replace(self.target, alpha=alpha))
+        syn = self.at(alpha)
         t0 = time.perf_counter()
         vals, status, own = self.compiled.solve((self.value(alpha),))
         wall = time.perf_counter() - t0

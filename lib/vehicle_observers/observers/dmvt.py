@@ -221,6 +221,20 @@ def design_dmvt_observer(vertices, C, r: int = 1, region=None, P_lower: float = 
     :class:`~vehicle_observers.design.constraints.InRegion` per region; the data certificate
     (``DMVTDesign.data_certificate``) rebuilds every LMI from ``A_i``, ``C``, ``L_j``, ``P``.
     """
+    syn, A, C, regs = dmvt_synthesis(vertices, C, r, region, P_lower, K_bound, eps, name)
+    des = syn.solve()
+    sol, P, L = des.solution, des.P, des.L
+    K = np.array([sol[f"K{j}"] for j in range(int(r))])
+    poles = check_poles(A, L, C, regs, name=name)
+    return DMVTDesign(P, K, L, poles, sol, regs, des.certificate)
+
+
+def dmvt_synthesis(vertices, C, r: int = 1, region=None, P_lower: float = 1.0,
+                   K_bound: float | None = None, eps: float = 1e-7,
+                   name: str = "DMVT observer (23)"):
+    """The :class:`~vehicle_observers.design.synthesis.ObserverSynthesis` of LMIs (23) (+ the
+    regions (35)-(36)) that :func:`design_dmvt_observer` solves (arguments as there, checked
+    here). Returns ``(synthesis, A (q, n, n), C (p, n), regions)``."""
     who = "design_dmvt_observer"
     A = np.asarray(vertices, dtype=float)
     C = np.atleast_2d(np.asarray(C, dtype=float))
@@ -246,11 +260,7 @@ def design_dmvt_observer(vertices, C, r: int = 1, region=None, P_lower: float = 
                             [Decay(0.0, label="(23)"), *(InRegion(reg) for reg in regs)],
                             gains="pairs", n_gains=int(r), P_lower=P_lower, gain_bound=K_bound,
                             eps=eps, order="vertex", name=name)
-    des = syn.solve()
-    sol, P, L = des.solution, des.P, des.L
-    K = np.array([sol[f"K{j}"] for j in range(int(r))])
-    poles = check_poles(A, L, C, regs, name=name)
-    return DMVTDesign(P, K, L, poles, sol, regs, des.certificate)
+    return syn, A, C, regs
 
 
 def region_sweep(vertices, C, a_values, R_values, r: int = 1, **kw) -> dict:
@@ -284,15 +294,32 @@ def region_sweep(vertices, C, a_values, R_values, r: int = 1, **kw) -> dict:
 
 
 def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: float = 0.05,
-                        r: int = 1, check_ends: bool = True, **kw) -> float:
+                        r: int = 1, check_ends: bool = True, compiled: bool = True,
+                        return_design: bool = False, **kw):
     """Smallest disk radius ``R`` (to ``tol``) for which (23)+(35)+(36) with half-plane ``a``
-    is feasible and certified, by bisection on ``[R_lo, R_hi]``.
+    is feasible and certified, by bisection on ``[R_lo, R_hi]`` [1/s].
 
     With ``check_ends`` the ends are tested first: returns ``nan`` if ``R_hi`` is infeasible
     and ``R_lo`` if ``R_lo`` is feasible. Without it the caller guarantees the bracket
     (``R_lo`` infeasible, ``R_hi`` feasible, e.g. from :func:`region_sweep`).
+
+    A radius is feasible when :func:`design_dmvt_observer` would return a design there: the
+    solver finds a point, the builders' certificate and the data certificate do not say
+    "violated" and every pole of ``A_i - L_j C`` lies in the regions (:func:`check_poles`).
+    ``compiled=True``: every step solves one problem compiled once with the radius as a cvxpy
+    Parameter (:class:`~vehicle_observers.design.synthesis.CompiledBisection` with the disk as
+    its target: cvxpy's canonicalisation once, then per step the substituted data and a fresh
+    Clarabel solve, so each step's conic data equal those of :func:`design_dmvt_observer` to
+    round-off); ``False``: each step poses and canonicalises its own problem
+    (:func:`design_dmvt_observer`). ``kw``: ``P_lower``, ``K_bound``, ``eps`` of
+    :func:`design_dmvt_observer`.
+
+    Returns ``R`` [1/s], or with ``return_design`` ``(R, design)``: the
+    :class:`DMVTDesign` of :func:`design_dmvt_observer` at that ``R`` (``None`` with ``nan``),
+    the same arrays whichever path found ``R``.
     """
     from vehicle_observers.design.lmi import disk, halfplane
+    from vehicle_observers.design.synthesis import CompiledBisection
 
     who = "min_feasible_radius"
     positive(who, "R_lo", R_lo, allow_zero=True)
@@ -300,19 +327,42 @@ def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: fl
     if not R_hi > R_lo:
         raise ObserverArgumentError(f"{who}: need R_hi > R_lo, got [{R_lo}, {R_hi}]")
 
-    def ok(R):
-        try:
-            design_dmvt_observer(vertices, C, r=r, region=[halfplane(a), disk(R)],
-                                 name=f"bisection a={a:g} R={R:g}", **kw)
+    def design_at(R):
+        return design_dmvt_observer(vertices, C, r=r, region=[halfplane(a), disk(R)],
+                                    name=f"bisection a={a:g} R={R:g}", **kw)
+
+    if compiled:
+        syn, A, Cm, regs = dmvt_synthesis(vertices, C, r, [halfplane(a), disk(R_hi)],
+                                          name=f"bisection a={a:g}", **kw)
+        comp = CompiledBisection(syn, target=syn.constraints[-1])
+
+        def ok(R):
+            des = comp.solve(R)
+            if des is None or des.status == "violated" or not des.solution.certificate.ok:
+                return False
+            try:
+                check_poles(A, des.L, Cm, [halfplane(a), disk(R)])
+            except CertificationError:
+                return False
             return True
-        except InfeasibleDesign:
-            return False
+    else:
+        def ok(R):
+            try:
+                design_at(R)
+                return True
+            except InfeasibleDesign:
+                return False
+
+    def result(R):
+        if not return_design:
+            return R
+        return R, (None if np.isnan(R) else design_at(R))
 
     if check_ends:
         if not ok(R_hi):
-            return float("nan")
+            return result(float("nan"))
         if ok(R_lo):
-            return float(R_lo)
+            return result(float(R_lo))
     lo, hi = float(R_lo), float(R_hi)
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
@@ -320,7 +370,7 @@ def min_feasible_radius(vertices, C, a: float, R_lo: float, R_hi: float, tol: fl
             hi = mid
         else:
             lo = mid
-    return hi
+    return result(hi)
 
 
 def sweep_brackets(sweep: dict) -> list:
