@@ -139,3 +139,20 @@ def test_campaign_provenance_names_a_library_change_and_invalidates_every_estima
     assert PV.affected_estimators(old, new) is None
     legacy = {k: v for k, v in new.items() if k != "library_sha256"}   # written before the key
     assert PV.changes(legacy, new) and PV.affected_estimators(legacy, new) is None
+
+
+def test_old_jit_cache_folders_are_pruned_and_the_current_one_kept(tmp_path):
+    """Catches folders of edited sources piling up without bound, and a pruning that removes
+    the folder in use or anything that is not a numba source folder."""
+    cur = tmp_path / "src-00000000000000aa"
+    old = tmp_path / "src-00000000000000bb"
+    recent = tmp_path / "src-00000000000000cc"
+    other = tmp_path / "my-own-cache"
+    for d in (cur, old, recent, other):
+        (d / "sub").mkdir(parents=True)
+    now = 1_000_000_000.0
+    for d, age in ((cur, 400), (old, 31), (recent, 29), (other, 400)):
+        os.utime(d, (now - age * 86400.0, now - age * 86400.0))
+    gone = source.prune_jit_caches(cur, now=now)
+    assert gone == [old]
+    assert cur.is_dir() and recent.is_dir() and other.is_dir() and not old.exists()

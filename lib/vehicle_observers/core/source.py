@@ -12,7 +12,8 @@ any on-disk store keyed by a few module files while the computation reaches furt
 packages installed from the same folder (``vehicle_observers_papers``): the on-disk caches
 (designs, selections, tunings, identifications) and the campaign provenance include it, and
 :func:`configure_jit_cache` puts numba's cache in a folder named after it, so any edit of
-the library starts from freshly compiled kernels. The digest is independent of the machine
+the library starts from freshly compiled kernels; the folders of other sources unused for 30
+days are removed (:func:`prune_jit_caches`). The digest is independent of the machine
 (relative paths and file bytes only).
 """
 
@@ -79,6 +80,32 @@ def jit_cache_dir(base: str | os.PathLike | None = None) -> Path:
     return Path(base) / f"src-{package_sha256()[:16]}"
 
 
+#: a numba cache folder of another source not used for this long is removed [s] (30 days)
+JIT_KEEP_S = 30 * 86400.0
+
+
+def prune_jit_caches(current: Path, keep_s: float = JIT_KEEP_S, now: float | None = None) -> list:
+    """Remove the ``src-*`` siblings of ``current`` whose modification time is older than
+    ``keep_s`` (each process marks its own folder as used, :func:`configure_jit_cache`), so
+    the folders of edited sources do not pile up. Errors are ignored (a folder in use by
+    another process is at worst compiled again). Returns the removed folders."""
+    import shutil
+    import time
+
+    now = time.time() if now is None else now
+    gone = []
+    try:
+        for d in current.parent.iterdir():
+            if d == current or not d.is_dir() or not _JIT_DIR.match(d.name):
+                continue
+            if now - d.stat().st_mtime > keep_s:
+                shutil.rmtree(d, ignore_errors=True)
+                gone.append(d)
+    except OSError:
+        pass
+    return gone
+
+
 def configure_jit_cache() -> Path | None:
     """Point numba's cache at :func:`jit_cache_dir` (the environment variable, inherited by
     papermill kernels, pytest workers and Dask workers, and numba's config if numba is
@@ -96,4 +123,10 @@ def configure_jit_cache() -> Path | None:
     cfg = sys.modules.get("numba.core.config")
     if cfg is not None:
         cfg.CACHE_DIR = str(d)
+    try:
+        if d.is_dir():
+            os.utime(d)                 # used now: kept by the pruning of other processes
+            prune_jit_caches(d)
+    except OSError:
+        pass
     return d
