@@ -110,6 +110,7 @@ from vehicle_observers.design.synthesis import (
     _diag,
     _offdiag,
     bisect_decay,
+    decay_target,
     pair_matrix,
     terms,
 )
@@ -488,14 +489,7 @@ class ParameterDependentSynthesis:
         ``alpha (1 - backoff)``, certified with a real margin. ``kw``: thresholds of
         :meth:`solve`. Each step poses its own problem (:meth:`solve`)."""
         who = f"{self.name}: maximise_decay"
-        tgt = [c for c in self.constraints if isinstance(self.inner(c), (Decay, InputToState))]
-        if len(tgt) != 1:
-            raise ObserverArgumentError(f"{who}: needs exactly one Decay or InputToState "
-                                        "constraint to vary")
-        if not (0 <= lo < hi and np.isfinite(hi)):
-            raise ObserverArgumentError(f"{who}: need 0 <= lo < hi < inf, got [{lo}, {hi}]")
-        _backoff_ok(who, backoff)
-        c0 = tgt[0]
+        c0 = decay_target(who, self.constraints, lo, hi, backoff, self.inner)
 
         def at(a):
             inner = dataclasses.replace(self.inner(c0), alpha=a)

@@ -519,14 +519,7 @@ class ObserverSynthesis:
         each step (data equal to round-off); the backed-off design is solved by
         :meth:`solve` either way, so it is the same array for the same optimum."""
         who = f"{self.name}: maximise_decay"
-        tgt = [c for c in self.constraints if isinstance(c, (Decay, InputToState))]
-        if len(tgt) != 1:
-            raise ObserverArgumentError(f"{who}: needs exactly one Decay or InputToState "
-                                        "constraint to vary")
-        if not (0 <= lo < hi and np.isfinite(hi)):
-            raise ObserverArgumentError(f"{who}: need 0 <= lo < hi < inf, got [{lo}, {hi}]")
-        _backoff_ok(who, backoff)
-        c0 = tgt[0]
+        c0 = decay_target(who, self.constraints, lo, hi, backoff)
 
         def at(a):
             return self._with(c0, dataclasses.replace(c0, alpha=a))
@@ -592,6 +585,22 @@ def bisect_decay(feasible, lo: float, hi: float, tol: float, who: str, label: st
 def _backoff_ok(who, b):
     if not (np.ndim(b) == 0 and np.isfinite(b) and 0 <= b < 1):
         raise ObserverArgumentError(f"{who}: backoff must be a fraction in [0, 1), got {b!r}")
+
+
+def decay_target(who: str, constraints, lo: float, hi: float, backoff: float,
+                 inner=lambda c: c):
+    """The one :class:`Decay` / :class:`InputToState` of ``constraints`` (seen through
+    ``inner``, e.g. an :class:`OnVertices` wrapper's constraint) that a decay bisection on
+    ``[lo, hi]`` varies, after checking the bracket and the back-off fraction; one
+    :class:`ObserverArgumentError` naming ``who`` otherwise."""
+    tgt = [c for c in constraints if isinstance(inner(c), (Decay, InputToState))]
+    if len(tgt) != 1:
+        raise ObserverArgumentError(f"{who}: needs exactly one Decay or InputToState "
+                                    "constraint to vary")
+    if not (0 <= lo < hi and np.isfinite(hi)):
+        raise ObserverArgumentError(f"{who}: need 0 <= lo < hi < inf, got [{lo}, {hi}]")
+    _backoff_ok(who, backoff)
+    return tgt[0]
 
 
 def design_observer(system: PolytopicSystem, constraints=(), objective: str | None = None,
