@@ -156,3 +156,18 @@ def test_old_jit_cache_folders_are_pruned_and_the_current_one_kept(tmp_path):
     gone = source.prune_jit_caches(cur, now=now)
     assert gone == [old]
     assert cur.is_dir() and recent.is_dir() and other.is_dir() and not old.exists()
+
+
+def test_no_home_folder_leaves_numba_default_instead_of_failing_the_import(monkeypatch):
+    """Catches an import of the package that raises when the home folder cannot be found (a
+    container user without a passwd entry: ``Path.home()`` raises ``RuntimeError``)."""
+    def no_home():
+        raise RuntimeError("Could not determine home directory.")
+
+    for k in ("NUMBA_CACHE_DIR", "VEHICLE_OBSERVERS_CACHE", "XDG_CACHE_HOME",
+              "VEHICLE_OBSERVERS_JIT_CACHE"):
+        monkeypatch.delenv(k, raising=False)
+    monkeypatch.setattr(Path, "home", staticmethod(no_home))
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
+    assert source.configure_jit_cache() is None
+    assert "NUMBA_CACHE_DIR" not in os.environ

@@ -117,7 +117,9 @@ def configure_jit_cache() -> Path | None:
         return None
     try:
         d = jit_cache_dir()
-    except OSError:                     # a package file unreadable: leave numba's default
+    except (OSError, RuntimeError, KeyError):
+        # a package file unreadable, or no home folder (a user without a passwd entry):
+        # leave numba's default rather than fail the import
         return None
     os.environ["NUMBA_CACHE_DIR"] = str(d)
     cfg = sys.modules.get("numba.core.config")
